@@ -1,0 +1,56 @@
+//! # micropt
+//!
+//! A `no_std`, allocation-free, f32 Monte Carlo path tracer for analytic
+//! scenes of spheres and infinite planes, built to run on microcontroller
+//! display boards and to give the same bits on the host.
+//!
+//! ```
+//! use micropt::{parse::parse, Renderer, Stats, Vec3, film::{tiles, draw_tile, TILE}};
+//! use embedded_graphics::{framebuffer::{Framebuffer, buffer_size}, pixelcolor::{Rgb565, raw::{RawU16, BigEndian}}};
+//!
+//! let scene = parse(include_str!("../scenes/sphere-over-plane.scene"))?;
+//! let renderer = Renderer::new(&scene, 32, 24).unwrap().seed(7);
+//! let mut fb = Framebuffer::<Rgb565, RawU16, BigEndian, 32, 24, { buffer_size::<Rgb565>(32, 24) }>::new();
+//! let mut stats = Stats::default();
+//! let mut tile_px = [Vec3::ZERO; (TILE * TILE) as usize];
+//! for tile in tiles(32, 24) {
+//!     renderer.render_tile(&tile, 2, &mut tile_px, &mut stats);
+//!     draw_tile(&mut fb, &tile, &tile_px, 1.0).unwrap();
+//! }
+//! assert_eq!(stats.paths, 32 * 24 * 2);
+//! # Ok::<(), micropt::parse::ParseError>(())
+//! ```
+//!
+//! Modules, one per concept: [`math`] (every float function, explicitly),
+//! [`geometry`] (vectors, rays, spheres, planes), [`camera`], [`material`],
+//! [`light`], [`sampler`], [`scene`], [`parse`], [`integrator`], [`film`],
+//! [`render`].
+
+#![no_std]
+#![cfg_attr(
+    not(all(target_arch = "arm", target_abi = "eabihf")),
+    forbid(unsafe_code)
+)]
+#![cfg_attr(all(target_arch = "arm", target_abi = "eabihf"), deny(unsafe_code))]
+#![deny(missing_docs)]
+#![deny(missing_debug_implementations)]
+#![deny(trivial_casts)]
+
+pub mod camera;
+pub mod film;
+pub mod geometry;
+pub mod integrator;
+pub mod light;
+pub mod material;
+pub mod math;
+pub mod parse;
+pub mod render;
+pub mod sampler;
+pub mod scene;
+
+pub use camera::{Camera, CameraError, CameraSpec};
+pub use geometry::{Color, Hit, ObjectId, Plane, Ray, Sphere, Vec3};
+pub use integrator::{Options, Stats, Strategy};
+pub use material::Material;
+pub use render::Renderer;
+pub use scene::{MaterialId, Scene, SceneBuilder, SceneError, SceneView};

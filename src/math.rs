@@ -1,0 +1,311 @@
+//! Every float function the core uses, called explicitly.
+//!
+//! Host and board must compute the same bits (DESIGN.md). A method call such as
+//! `x.sqrt()` resolves to `std`'s intrinsic on the host but to micromath's
+//! approximation on a `no_std` board, so the core never calls float methods:
+//! it calls the functions of this module, which are either
+//!
+//! * correctly rounded (`sqrt`: the FPU's `vsqrt.f32` on Cortex-M4F/M33,
+//!   `sqrtss` on x86-64, libm's integer implementation elsewhere — all give the
+//!   IEEE result, hence the same bits), or
+//! * built only from `+ - * /`, comparisons and bit casts, which IEEE 754
+//!   defines exactly (Rust never contracts `a * b + c` into a fused
+//!   multiply-add), so they give the same bits on every target.
+//!
+//! libm's `sinf`, `cosf` and `powf` are *not* used: they compute in double precision,
+//! which is software emulation on a Cortex-M4F and would pull soft-double
+//! routines into the firmware. The polynomials here are accurate to a few
+//! ulps, which the host tests check against double-precision references.
+//!
+//! micromath's fast approximations are available as the `fast_*` functions
+//! (micromath is ~5 % off for `sqrt`, so never use it for intersection); the
+//! integrator uses them only when [`crate::integrator::Options::fast_math`]
+//! asks for it, and the benchmark measures what that costs in error.
+
+/// π.
+pub const PI: f32 = core::f32::consts::PI;
+/// 1 / π.
+pub const INV_PI: f32 = core::f32::consts::FRAC_1_PI;
+/// 2π.
+pub const TWO_PI: f32 = 2.0 * core::f32::consts::PI;
+/// Machine epsilon of the error analysis: half an ulp of 1, 2⁻²⁴.
+pub const MACHINE_EPSILON: f32 = f32::EPSILON * 0.5;
+
+/// pbrt's γ(n) = nε / (1 − nε): bounds the relative error of `n` chained
+/// floating-point operations.
+#[inline(always)]
+pub const fn gamma(n: u32) -> f32 {
+    let ne = n as f32 * MACHINE_EPSILON;
+    ne / (1.0 - ne)
+}
+
+/// Correctly rounded square root (the IEEE result). Negative input gives NaN.
+#[inline(always)]
+pub fn sqrt(x: f32) -> f32 {
+    sqrt_impl(x)
+}
+
+/// Square root on the Cortex-M4F / M33 FPU: one `vsqrt.f32` instead of libm's
+/// ~53-instruction software routine. The only `unsafe` in the crate.
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+#[inline(always)]
+#[allow(unsafe_code)]
+fn sqrt_impl(x: f32) -> f32 {
+    let bits_in = x.to_bits();
+    let bits_out: u32;
+    // SAFETY: `vsqrt.f32` reads and writes only the named FPU register (s0),
+    // which is declared as clobbered through the `out("s0")` operand; the
+    // values move through core registers (`vmov`), because `asm!` rejects
+    // `sreg` operands for f32 on this target. No memory is touched
+    // (`nomem`, `nostack`), and the eabihf targets always have the FPU
+    // enabled by the runtime before `main`.
+    unsafe {
+        core::arch::asm!(
+            "vmov {s}, {i}",
+            "vsqrt.f32 {s}, {s}",
+            "vmov {o}, {s}",
+            i = in(reg) bits_in,
+            o = lateout(reg) bits_out,
+            s = out("s0") _,
+            options(pure, nomem, nostack, preserves_flags),
+        );
+    }
+    f32::from_bits(bits_out)
+}
+
+#[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+#[inline(always)]
+fn sqrt_impl(x: f32) -> f32 {
+    libm::sqrtf(x)
+}
+
+/// `sqrt(max(x, 0))`: for quantities that are mathematically non-negative but
+/// may round slightly below zero.
+#[inline(always)]
+pub fn safe_sqrt(x: f32) -> f32 {
+    sqrt(max(x, 0.0))
+}
+
+/// |x|.
+#[inline(always)]
+pub fn abs(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() & 0x7fff_ffff)
+}
+
+/// The magnitude of `x` with the sign of `s`.
+#[inline(always)]
+pub fn copysign(x: f32, s: f32) -> f32 {
+    f32::from_bits((x.to_bits() & 0x7fff_ffff) | (s.to_bits() & 0x8000_0000))
+}
+
+/// The smaller of two numbers (`b` if either is NaN and `a < b` is false).
+#[inline(always)]
+pub fn min(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
+/// The larger of two numbers (`b` if either is NaN and `a > b` is false).
+#[inline(always)]
+pub fn max(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+/// `x` clamped to `[lo, hi]`; NaN becomes `lo`.
+#[inline(always)]
+pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    if x > lo {
+        if x < hi { x } else { hi }
+    } else {
+        lo
+    }
+}
+
+/// Largest integer not greater than `x`, for |x| < 2³¹.
+#[inline(always)]
+pub fn floor(x: f32) -> f32 {
+    let t = x as i32 as f32;
+    if t > x { t - 1.0 } else { t }
+}
+
+/// Whether `x` is neither infinite nor NaN.
+#[inline(always)]
+pub fn is_finite(x: f32) -> bool {
+    (x.to_bits() & 0x7f80_0000) != 0x7f80_0000
+}
+
+/// The next representable float above `x` (pbrt's `NextFloatUp`).
+#[inline]
+pub fn next_up(x: f32) -> f32 {
+    if x.is_infinite() && x > 0.0 {
+        return x;
+    }
+    let x = if x == -0.0 { 0.0 } else { x };
+    let b = x.to_bits();
+    f32::from_bits(if x >= 0.0 { b + 1 } else { b - 1 })
+}
+
+/// The next representable float below `x` (pbrt's `NextFloatDown`).
+#[inline]
+pub fn next_down(x: f32) -> f32 {
+    if x.is_infinite() && x < 0.0 {
+        return x;
+    }
+    let x = if x == 0.0 { -0.0 } else { x };
+    let b = x.to_bits();
+    f32::from_bits(if x > 0.0 { b - 1 } else { b + 1 })
+}
+
+/// `(sin 2πt, cos 2πt)` for an angle given in turns.
+///
+/// Sampling code draws angles as a fraction `t` of a full turn, which allows
+/// an exact range reduction (`t - round(4t)/4`) instead of a reduction modulo
+/// 2π. Maximum error ~2 ulp for `t` in [0, 1) (tested in double precision).
+#[inline]
+pub fn sincos_turns(t: f32) -> (f32, f32) {
+    // quadrant q = round(4t); remainder r in [-1/8, 1/8] turns, exact for
+    // |t| < 2^22 because 4t and its rounding are exact in f32.
+    let q4 = t * 4.0;
+    let qf = floor(q4 + 0.5);
+    let r = (q4 - qf) * 0.25; // exact: power-of-two scaling
+    let q = (qf as i32) & 3;
+    let x = r * TWO_PI; // |x| <= pi/4
+    let x2 = x * x;
+    // Taylor polynomials on [-pi/4, pi/4]; truncation error < 2e-9
+    let s = x
+        * (1.0
+            + x2 * (-1.0 / 6.0
+                + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0)))));
+    let c = 1.0
+        + x2 * (-0.5
+            + x2 * (1.0 / 24.0
+                + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0 + x2 * (-1.0 / 3_628_800.0)))));
+    match q {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
+}
+
+/// `(sin a, cos a)` for an angle in radians, |a| < 10⁵ (setup code only).
+#[inline]
+pub fn sincos(a: f32) -> (f32, f32) {
+    sincos_turns(a * (1.0 / TWO_PI))
+}
+
+/// log₂ x for x > 0 (finite, normal or subnormal). About 2 ulp.
+pub fn log2(x: f32) -> f32 {
+    if !(x > 0.0) {
+        return if x == 0.0 {
+            f32::NEG_INFINITY
+        } else {
+            f32::NAN
+        };
+    }
+    if !is_finite(x) {
+        return x;
+    }
+    // normalise subnormals
+    let (x, bias) = if x < f32::MIN_POSITIVE {
+        (x * 16_777_216.0, 24)
+    } else {
+        (x, 0)
+    };
+    let bits = x.to_bits();
+    let mut e = ((bits >> 23) & 0xff) as i32 - 127 - bias;
+    let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000); // [1, 2)
+    if m > core::f32::consts::SQRT_2 {
+        m *= 0.5;
+        e += 1;
+    }
+    // log2(m) = 2/ln2 * atanh(s), s = (m-1)/(m+1), |s| <= 0.1716
+    let s = (m - 1.0) / (m + 1.0);
+    let s2 = s * s;
+    let p = s * (2.0 + s2 * (0.666_666_7 + s2 * (0.4 + s2 * (0.285_714_3 + s2 * 0.222_222_2))));
+    e as f32 + p * core::f32::consts::LOG2_E
+}
+
+/// 2ˣ. About 2 ulp; 0 below −149, +∞ above 128.
+pub fn exp2(x: f32) -> f32 {
+    if x.is_nan() {
+        return x;
+    }
+    if x >= 128.0 {
+        return f32::INFINITY;
+    }
+    if x < -150.0 {
+        return 0.0;
+    }
+    let fi = floor(x + 0.5);
+    let f = x - fi; // [-0.5, 0.5], exact
+    let i = fi as i32;
+    // 2^f = e^(f ln2), Taylor to degree 7 on |y| <= 0.35: error < 1e-8
+    let y = f * core::f32::consts::LN_2;
+    let p = 1.0
+        + y * (1.0
+            + y * (0.5
+                + y * (1.0 / 6.0
+                    + y * (1.0 / 24.0
+                        + y * (1.0 / 120.0 + y * (1.0 / 720.0 + y * (1.0 / 5040.0)))))));
+    // scale by 2^i in two steps so that subnormal results are reachable
+    let i1 = i / 2;
+    let i2 = i - i1;
+    p * f32::from_bits(((i1 + 127) as u32) << 23) * f32::from_bits(((i2 + 127) as u32) << 23)
+}
+
+/// xʸ for x ≥ 0 (tone mapping). `powf(0, y) = 0` for y > 0.
+pub fn powf(x: f32, y: f32) -> f32 {
+    if x == 0.0 {
+        return if y > 0.0 { 0.0 } else { 1.0 };
+    }
+    exp2(y * log2(x))
+}
+
+/// micromath's approximate square root (~5 % error; never for geometry).
+#[inline(always)]
+pub fn fast_sqrt(x: f32) -> f32 {
+    micromath::F32(x).sqrt().0
+}
+
+/// micromath's approximate `(sin 2πt, cos 2πt)` (absolute error ~1e-3).
+#[inline(always)]
+pub fn fast_sincos_turns(t: f32) -> (f32, f32) {
+    let a = micromath::F32(t * TWO_PI);
+    (a.sin().0, a.cos().0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn next_float_steps_one_ulp() {
+        assert!(next_up(1.0) > 1.0 && next_up(1.0) - 1.0 == f32::EPSILON);
+        assert!(next_down(1.0) < 1.0);
+        assert!(next_up(0.0) > 0.0 && next_down(0.0) < 0.0);
+        assert!(next_up(-1.0) > -1.0);
+    }
+
+    #[test]
+    fn floor_abs_copysign_clamp() {
+        assert_eq!(floor(-0.5), -1.0);
+        assert_eq!(floor(2.0), 2.0);
+        assert_eq!(floor(2.7), 2.0);
+        assert_eq!(abs(-3.0), 3.0);
+        assert_eq!(copysign(2.0, -0.0), -2.0);
+        assert_eq!(clamp(f32::NAN, 0.0, 1.0), 0.0);
+        assert!(!is_finite(f32::INFINITY) && !is_finite(f32::NAN) && is_finite(1e38));
+    }
+
+    #[test]
+    fn exact_values() {
+        assert_eq!(sincos_turns(0.0), (0.0, 1.0));
+        assert_eq!(sincos_turns(0.25), (1.0, 0.0));
+        assert_eq!(sincos_turns(0.5), (0.0, -1.0));
+        assert_eq!(powf(0.0, 0.5), 0.0);
+        assert_eq!(powf(1.0, 0.4), 1.0);
+        assert_eq!(exp2(3.0), 8.0);
+        assert_eq!(log2(8.0), 3.0);
+        assert_eq!(sqrt(4.0), 2.0);
+    }
+}

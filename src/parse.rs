@@ -1,0 +1,352 @@
+//! The scene text format v1 (SCENE_FORMAT.md) → [`Scene`].
+//!
+//! `no_std` and allocation-free: material names are borrowed from the input
+//! while parsing. Every error carries the 1-based line it was found on and
+//! its kind, and the parser never panics, whatever bytes it is given.
+
+use crate::camera::CameraSpec;
+use crate::geometry::Vec3;
+use crate::material::Material;
+use crate::scene::{MaterialId, Scene, SceneBuilder, SceneError};
+use heapless::Vec;
+
+/// Longest material name, in bytes.
+pub const MAX_NAME_LEN: usize = 32;
+/// Most whitespace-separated tokens a statement may have (camera has 11).
+const MAX_TOKENS: usize = 12;
+
+/// What is wrong with a scene file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParseErrorKind {
+    /// The line is not valid UTF-8.
+    InvalidUtf8,
+    /// The first word is not a statement of the format.
+    UnknownStatement,
+    /// `material NAME KIND …` with an unknown KIND.
+    UnknownMaterialKind,
+    /// A statement with the wrong number of values.
+    WrongArgCount {
+        /// Number of values the statement takes.
+        expected: u8,
+        /// Number of values found (capped at the token limit).
+        found: u8,
+    },
+    /// A value that is not a decimal number (or, for `resolution`, not a
+    /// positive integer).
+    NotANumber,
+    /// A number that is not finite (`nan`, `inf`, or overflowing f32).
+    NotFinite,
+    /// A name that does not match `[A-Za-z_][A-Za-z0-9_-]*` or is longer than
+    /// 32 bytes.
+    BadName,
+    /// A material used before it is defined.
+    UnknownMaterial,
+    /// A material name defined twice.
+    RedefinedMaterial,
+    /// A second `resolution` or `background` statement.
+    Repeated(&'static str),
+    /// The scene has no `camera` statement (reported at the last line).
+    MissingCamera,
+    /// A scene-level error at this line (range, capacity, camera, light on a
+    /// plane …).
+    Scene(SceneError),
+}
+
+/// A scene file error: the line (1-based) and what is wrong.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ParseError {
+    /// 1-based line number.
+    pub line: u32,
+    /// What is wrong.
+    pub kind: ParseErrorKind,
+}
+
+impl core::fmt::Display for ParseError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "line {}: ", self.line)?;
+        match self.kind {
+            ParseErrorKind::InvalidUtf8 => f.write_str("not valid UTF-8"),
+            ParseErrorKind::UnknownStatement => f.write_str(
+                "unknown statement (expected camera, resolution, background, material, sphere or plane)",
+            ),
+            ParseErrorKind::UnknownMaterialKind => {
+                f.write_str("unknown material kind (expected diffuse, mirror, glass or light)")
+            }
+            ParseErrorKind::WrongArgCount { expected, found } => {
+                write!(f, "wrong number of values: expected {expected}, found {found}")
+            }
+            ParseErrorKind::NotANumber => f.write_str("value is not a number"),
+            ParseErrorKind::NotFinite => f.write_str("value is not finite"),
+            ParseErrorKind::BadName => {
+                f.write_str("bad name (must match [A-Za-z_][A-Za-z0-9_-]*, at most 32 bytes)")
+            }
+            ParseErrorKind::UnknownMaterial => f.write_str("unknown material (define it before use)"),
+            ParseErrorKind::RedefinedMaterial => f.write_str("material defined twice"),
+            ParseErrorKind::Repeated(what) => write!(f, "second {what} statement"),
+            ParseErrorKind::MissingCamera => f.write_str("no camera statement in the scene"),
+            ParseErrorKind::Scene(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+fn is_name(s: &str) -> bool {
+    let b = s.as_bytes();
+    match b.first() {
+        Some(c) if c.is_ascii_alphabetic() || *c == b'_' => {}
+        _ => return false,
+    }
+    b.len() <= MAX_NAME_LEN
+        && b.iter()
+            .all(|c| c.is_ascii_alphanumeric() || *c == b'_' || *c == b'-')
+}
+
+fn number(tok: &str) -> Result<f32, ParseErrorKind> {
+    // the format's numbers: optional sign, digits with an optional point,
+    // optional exponent. core's parser also takes "inf"/"nan": reject those
+    // as not finite, anything else non-numeric as not a number.
+    let b = tok.as_bytes();
+    let body = match b.first() {
+        Some(b'+') | Some(b'-') => b.get(1..).unwrap_or(&[]),
+        _ => b,
+    };
+    if body.first().is_some_and(|c| c.is_ascii_alphabetic()) {
+        return match tok.parse::<f32>() {
+            Ok(_) => Err(ParseErrorKind::NotFinite),
+            Err(_) => Err(ParseErrorKind::NotANumber),
+        };
+    }
+    let v = tok.parse::<f32>().map_err(|_| ParseErrorKind::NotANumber)?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(ParseErrorKind::NotFinite)
+    }
+}
+
+fn integer(tok: &str) -> Result<u32, ParseErrorKind> {
+    if !tok.bytes().all(|c| c.is_ascii_digit()) {
+        return Err(ParseErrorKind::NotANumber);
+    }
+    tok.parse::<u32>()
+        .map_err(|_| ParseErrorKind::Scene(SceneError::OutOfRange("resolution")))
+}
+
+struct Parser<'a, const S: usize, const P: usize, const M: usize> {
+    builder: SceneBuilder<S, P, M>,
+    names: Vec<&'a str, M>,
+    seen_resolution: bool,
+    seen_background: bool,
+}
+
+impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
+    fn material_id(&self, name: &str) -> Result<MaterialId, ParseErrorKind> {
+        self.names
+            .iter()
+            .position(|n| *n == name)
+            .map(|i| MaterialId(i as u16))
+            .ok_or(ParseErrorKind::UnknownMaterial)
+    }
+
+    fn statement(&mut self, toks: &[&'a str]) -> Result<(), ParseErrorKind> {
+        let Some((&head, args)) = toks.split_first() else {
+            return Ok(());
+        };
+        let count = |n: u8| {
+            if args.len() == n as usize {
+                Ok(())
+            } else {
+                Err(ParseErrorKind::WrongArgCount {
+                    expected: n,
+                    found: args.len() as u8,
+                })
+            }
+        };
+        let nums = |range: core::ops::Range<usize>| -> Result<[f32; 10], ParseErrorKind> {
+            let mut out = [0.0; 10];
+            for (o, t) in out.iter_mut().zip(args.get(range).unwrap_or(&[])) {
+                *o = number(t)?;
+            }
+            Ok(out)
+        };
+        let scene = ParseErrorKind::Scene;
+        match head {
+            "camera" => {
+                count(10)?;
+                let v = nums(0..10)?;
+                self.builder
+                    .camera(CameraSpec {
+                        eye: Vec3::new(v[0], v[1], v[2]),
+                        target: Vec3::new(v[3], v[4], v[5]),
+                        up: Vec3::new(v[6], v[7], v[8]),
+                        vfov_deg: v[9],
+                    })
+                    .map_err(scene)
+            }
+            "resolution" => {
+                count(2)?;
+                if self.seen_resolution {
+                    return Err(ParseErrorKind::Repeated("resolution"));
+                }
+                self.seen_resolution = true;
+                let w = integer(args.first().copied().unwrap_or(""))?;
+                let h = integer(args.get(1).copied().unwrap_or(""))?;
+                self.builder.resolution(w, h).map_err(scene)
+            }
+            "background" => {
+                count(3)?;
+                if self.seen_background {
+                    return Err(ParseErrorKind::Repeated("background"));
+                }
+                self.seen_background = true;
+                let v = nums(0..3)?;
+                self.builder
+                    .background(Vec3::new(v[0], v[1], v[2]))
+                    .map_err(scene)
+            }
+            "material" => {
+                let (Some(&name), Some(&kind)) = (args.first(), args.get(1)) else {
+                    return Err(ParseErrorKind::WrongArgCount {
+                        expected: 5,
+                        found: args.len() as u8,
+                    });
+                };
+                if !is_name(name) {
+                    return Err(ParseErrorKind::BadName);
+                }
+                let m = match kind {
+                    "diffuse" | "mirror" | "light" => {
+                        count(5)?;
+                        let v = nums(2..5)?;
+                        let c = Vec3::new(v[0], v[1], v[2]);
+                        match kind {
+                            "diffuse" => Material::Diffuse(c),
+                            "mirror" => Material::Mirror(c),
+                            _ => Material::Light(c),
+                        }
+                    }
+                    "glass" => {
+                        count(3)?;
+                        Material::Glass(nums(2..3)?[0])
+                    }
+                    _ => return Err(ParseErrorKind::UnknownMaterialKind),
+                };
+                if self.names.contains(&name) {
+                    return Err(ParseErrorKind::RedefinedMaterial);
+                }
+                self.builder.material(m).map_err(scene)?;
+                // capacity equals the builder's, which just accepted one more
+                self.names
+                    .push(name)
+                    .map_err(|_| scene(SceneError::Capacity("materials")))
+            }
+            "sphere" => {
+                count(5)?;
+                let v = nums(0..4)?;
+                let m = self.material_id(args.get(4).copied().unwrap_or(""))?;
+                self.builder
+                    .sphere(Vec3::new(v[0], v[1], v[2]), v[3], m)
+                    .map(|_| ())
+                    .map_err(scene)
+            }
+            "plane" => {
+                count(7)?;
+                let v = nums(0..6)?;
+                let m = self.material_id(args.get(6).copied().unwrap_or(""))?;
+                self.builder
+                    .plane(Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]), m)
+                    .map(|_| ())
+                    .map_err(scene)
+            }
+            _ => Err(ParseErrorKind::UnknownStatement),
+        }
+    }
+
+    fn line(&mut self, text: &'a str) -> Result<(), ParseErrorKind> {
+        let code = text.split('#').next().unwrap_or("");
+        let mut toks: Vec<&'a str, MAX_TOKENS> = Vec::new();
+        let mut total = 0usize;
+        for t in code.split([' ', '\t', '\r']).filter(|t| !t.is_empty()) {
+            total += 1;
+            let _ = toks.push(t); // beyond MAX_TOKENS: counted, not kept
+        }
+        if total > toks.len() {
+            // too many tokens for any statement; report the count
+            let expected = match toks.first().copied() {
+                Some("camera") => 10,
+                Some("resolution") => 2,
+                Some("background") => 3,
+                Some("material") => 5,
+                Some("sphere") => 5,
+                Some("plane") => 7,
+                _ => return Err(ParseErrorKind::UnknownStatement),
+            };
+            let found = u8::try_from(total - 1).unwrap_or(u8::MAX);
+            return Err(ParseErrorKind::WrongArgCount { expected, found });
+        }
+        self.statement(&toks)
+    }
+}
+
+/// Parses a scene from text with the default capacities.
+///
+/// ```
+/// let scene = micropt::parse::parse(
+///     "camera 0 0 4  0 0 0  0 1 0  40\nmaterial grey diffuse 0.5 0.5 0.5\nsphere 0 0 0 1 grey\n",
+/// )?;
+/// assert_eq!(scene.spheres().len(), 1);
+/// let err = micropt::parse::parse("camera 0 0 4  0 0 0  0 1 0  40\nsphere 0 0 0 1 nope\n").unwrap_err();
+/// assert_eq!(err.line, 2);
+/// assert_eq!(err.to_string(), "line 2: unknown material (define it before use)");
+/// # Ok::<(), micropt::parse::ParseError>(())
+/// ```
+pub fn parse(text: &str) -> Result<Scene, ParseError> {
+    parse_with_capacity(text)
+}
+
+/// Parses a scene from text into a scene of chosen capacities.
+pub fn parse_with_capacity<const S: usize, const P: usize, const M: usize>(
+    text: &str,
+) -> Result<Scene<S, P, M>, ParseError> {
+    parse_bytes_with_capacity(text.as_bytes())
+}
+
+/// Parses a scene from raw bytes (a line that is not UTF-8 is an error at
+/// that line), with the default capacities.
+pub fn parse_bytes(bytes: &[u8]) -> Result<Scene, ParseError> {
+    parse_bytes_with_capacity(bytes)
+}
+
+/// Parses a scene from raw bytes into a scene of chosen capacities.
+pub fn parse_bytes_with_capacity<const S: usize, const P: usize, const M: usize>(
+    bytes: &[u8],
+) -> Result<Scene<S, P, M>, ParseError> {
+    let mut p: Parser<'_, S, P, M> = Parser {
+        builder: SceneBuilder::new(),
+        names: Vec::new(),
+        seen_resolution: false,
+        seen_background: false,
+    };
+    let mut line_no = 0u32;
+    for raw in bytes.split(|&b| b == b'\n') {
+        line_no = line_no.saturating_add(1);
+        let text = core::str::from_utf8(raw).map_err(|_| ParseError {
+            line: line_no,
+            kind: ParseErrorKind::InvalidUtf8,
+        })?;
+        p.line(text).map_err(|kind| ParseError {
+            line: line_no,
+            kind,
+        })?;
+    }
+    // a trailing newline ends the last line; it does not start a new one
+    if bytes.last() == Some(&b'\n') {
+        line_no = line_no.saturating_sub(1).max(1);
+    }
+    p.builder.build().map_err(|e| ParseError {
+        line: line_no.max(1),
+        kind: match e {
+            SceneError::NoCamera => ParseErrorKind::MissingCamera,
+            other => ParseErrorKind::Scene(other),
+        },
+    })
+}

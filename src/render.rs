@@ -1,0 +1,141 @@
+//! The render API: a pure function of (scene, camera, options, seed, tile,
+//! sample range) that any executor can drive — one core on a board, threads
+//! on a host.
+
+use crate::camera::{Camera, CameraError};
+use crate::film::Tile;
+use crate::geometry::Color;
+use crate::integrator::{self, Options, Stats};
+use crate::sampler::{SampleStream, pixel_key};
+use crate::scene::{Scene, SceneView};
+
+/// Renders pixels of one scene at one image size.
+///
+/// ```
+/// use micropt::{parse::parse, Renderer, Stats, Vec3, film::{tiles, TILE}};
+/// let scene = parse(include_str!("../scenes/furnace.scene")).unwrap();
+/// let r = Renderer::new(&scene, 32, 32).unwrap().seed(1);
+/// let mut stats = Stats::default();
+/// let mut px = [Vec3::ZERO; (TILE * TILE) as usize];
+/// for tile in tiles(32, 32) {
+///     r.render_tile(&tile, 4, &mut px, &mut stats);
+/// }
+/// assert_eq!(stats.paths, 32 * 32 * 4);
+/// // the last tile's top-left pixel is the image centre, on the grey sphere
+/// // under a white sky: exactly its albedo (the furnace test)
+/// assert_eq!(px[0], Vec3::splat(0.5));
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct Renderer<'a> {
+    scene: SceneView<'a>,
+    camera: Camera,
+    seed: u64,
+    options: Options,
+}
+
+impl<'a> Renderer<'a> {
+    /// A renderer of `scene` at `width × height` (seed 0, default options).
+    pub fn new<const S: usize, const P: usize, const M: usize>(
+        scene: &'a Scene<S, P, M>,
+        width: u32,
+        height: u32,
+    ) -> Result<Self, CameraError> {
+        Ok(Self {
+            scene: scene.view(),
+            camera: Camera::new(scene.camera(), width, height)?,
+            seed: 0,
+            options: Options::default(),
+        })
+    }
+
+    /// Sets the render seed: images are a pure function of it.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// Sets the integrator options.
+    pub fn options(mut self, options: Options) -> Self {
+        self.options = options;
+        self
+    }
+
+    /// The integrator options.
+    pub fn get_options(&self) -> &Options {
+        &self.options
+    }
+
+    /// The camera.
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    /// The scene's arrays.
+    pub fn scene(&self) -> &SceneView<'a> {
+        &self.scene
+    }
+
+    /// Image width.
+    pub fn width(&self) -> u32 {
+        self.camera.width()
+    }
+
+    /// Image height.
+    pub fn height(&self) -> u32 {
+        self.camera.height()
+    }
+
+    /// Sample number `index` of pixel (x, y): one path. A non-finite result
+    /// is counted in `stats.nonfinite` and returned as zero.
+    #[inline]
+    pub fn sample(&self, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
+        let mut s = SampleStream::new(pixel_key(self.seed, x, y), index);
+        let [u, v] = if self.options.stratified {
+            s.stratified_2d(0)
+        } else {
+            s.next_2d()
+        };
+        let ray = self.camera.ray(x as f32 + u, y as f32 + v);
+        let c = integrator::radiance(&self.scene, ray, &mut s, &self.options, stats);
+        if c.is_finite() {
+            c
+        } else {
+            stats.nonfinite += 1;
+            Color::ZERO
+        }
+    }
+
+    /// Adds samples `first .. first + count` of every pixel of `tile` to
+    /// `sums` (row-major within the tile, `tile.len()` entries), each pixel's
+    /// samples in increasing order, so that any split of a pixel's samples
+    /// into calls gives the same sums bit for bit.
+    pub fn accumulate_tile(
+        &self,
+        tile: &Tile,
+        first: u32,
+        count: u32,
+        sums: &mut [Color],
+        stats: &mut Stats,
+    ) {
+        for (i, acc) in sums.iter_mut().take(tile.len()).enumerate() {
+            let i = i as u32;
+            let (x, y) = (tile.x + i % tile.w, tile.y + i / tile.w);
+            for k in first..first.saturating_add(count) {
+                *acc += self.sample(x, y, k, stats);
+            }
+        }
+    }
+
+    /// Renders `tile` with `spp` samples per pixel and writes each pixel's
+    /// mean radiance to `out` (row-major within the tile).
+    pub fn render_tile(&self, tile: &Tile, spp: u32, out: &mut [Color], stats: &mut Stats) {
+        for c in out.iter_mut().take(tile.len()) {
+            *c = Color::ZERO;
+        }
+        self.accumulate_tile(tile, 0, spp, out, stats);
+        let inv = 1.0 / spp.max(1) as f32;
+        for c in out.iter_mut().take(tile.len()) {
+            *c *= inv;
+        }
+    }
+}

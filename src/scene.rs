@@ -1,0 +1,540 @@
+//! The fixed-capacity scene: objects, materials, lights, camera, validated
+//! on construction, and the two ray queries (closest hit, occlusion).
+
+use crate::camera::{CameraError, CameraSpec};
+use crate::geometry::{Color, Hit, ObjectId, Plane, Ray, Sphere, Vec3};
+use crate::material::Material;
+use heapless::Vec;
+
+/// Default capacity: spheres.
+pub const MAX_SPHERES: usize = 128;
+/// Default capacity: planes.
+pub const MAX_PLANES: usize = 16;
+/// Default capacity: materials.
+pub const MAX_MATERIALS: usize = 32;
+
+/// A material handle returned by [`SceneBuilder::material`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MaterialId(pub(crate) u16);
+
+/// What is wrong with a scene built in code (the parser maps these to
+/// line-numbered [`crate::parse::ParseError`]s).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneError {
+    /// More objects of this kind than the build's fixed capacity.
+    Capacity(&'static str),
+    /// A value outside its allowed range; names the quantity.
+    OutOfRange(&'static str),
+    /// A value that is NaN or infinite.
+    NotFinite,
+    /// A material handle from another scene, or out of range.
+    UnknownMaterial,
+    /// A plane with a light material (an infinite emitter).
+    LightOnPlane,
+    /// The scene has no camera.
+    NoCamera,
+    /// A second camera.
+    SecondCamera,
+    /// The camera specification is invalid.
+    Camera(CameraError),
+}
+
+impl core::fmt::Display for SceneError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SceneError::Capacity(what) => {
+                write!(f, "too many {what} (fixed capacity of this build)")
+            }
+            SceneError::OutOfRange(what) => write!(f, "{what} out of range"),
+            SceneError::NotFinite => f.write_str("value is not finite"),
+            SceneError::UnknownMaterial => f.write_str("unknown material"),
+            SceneError::LightOnPlane => {
+                f.write_str("a plane cannot use a light material (infinite emitter)")
+            }
+            SceneError::NoCamera => f.write_str("the scene has no camera"),
+            SceneError::SecondCamera => f.write_str("a second camera (exactly one is allowed)"),
+            SceneError::Camera(CameraError::EyeEqualsTarget) => {
+                f.write_str("camera eye equals target")
+            }
+            SceneError::Camera(CameraError::UpParallelToView) => {
+                f.write_str("camera up vector is zero or parallel to the view direction")
+            }
+            SceneError::Camera(CameraError::FovOutOfRange) => {
+                f.write_str("vertical field of view must be in (0, 180) degrees")
+            }
+            SceneError::Camera(CameraError::NotFinite) => f.write_str("camera value is not finite"),
+        }
+    }
+}
+
+/// A validated scene with fixed capacities (default 128 spheres, 16 planes,
+/// 32 materials; choose others with the const parameters).
+///
+/// ```
+/// use micropt::{Scene, SceneBuilder, Material, Vec3, CameraSpec};
+/// let mut b: SceneBuilder = SceneBuilder::new();
+/// let grey = b.material(Material::Diffuse(Vec3::splat(0.5)))?;
+/// b.sphere(Vec3::ZERO, 1.0, grey)?;
+/// b.camera(CameraSpec {
+///     eye: Vec3::new(0.0, 0.0, 4.0),
+///     target: Vec3::ZERO,
+///     up: Vec3::new(0.0, 1.0, 0.0),
+///     vfov_deg: 40.0,
+/// })?;
+/// b.background(Vec3::ONE)?;
+/// let scene: Scene = b.build()?;
+/// assert_eq!(scene.spheres().len(), 1);
+/// # Ok::<(), micropt::SceneError>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct Scene<
+    const S: usize = MAX_SPHERES,
+    const P: usize = MAX_PLANES,
+    const M: usize = MAX_MATERIALS,
+> {
+    spheres: Vec<Sphere, S>,
+    planes: Vec<Plane, P>,
+    materials: Vec<Material, M>,
+    lights: Vec<u16, S>,
+    background: Color,
+    camera: CameraSpec,
+    resolution: Option<(u32, u32)>,
+}
+
+/// Builds a [`Scene`] in code, checking every value as it is added.
+#[derive(Clone, Debug)]
+pub struct SceneBuilder<
+    const S: usize = MAX_SPHERES,
+    const P: usize = MAX_PLANES,
+    const M: usize = MAX_MATERIALS,
+> {
+    spheres: Vec<Sphere, S>,
+    planes: Vec<Plane, P>,
+    materials: Vec<Material, M>,
+    background: Color,
+    camera: Option<CameraSpec>,
+    resolution: Option<(u32, u32)>,
+}
+
+impl<const S: usize, const P: usize, const M: usize> Default for SceneBuilder<S, P, M> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+fn check_finite(v: Vec3) -> Result<(), SceneError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(SceneError::NotFinite)
+    }
+}
+
+fn check_unit_range(c: Color, what: &'static str) -> Result<(), SceneError> {
+    check_finite(c)?;
+    for v in [c.x, c.y, c.z] {
+        if !(0.0..=1.0).contains(&v) {
+            return Err(SceneError::OutOfRange(what));
+        }
+    }
+    Ok(())
+}
+
+fn check_non_negative(c: Color, what: &'static str) -> Result<(), SceneError> {
+    check_finite(c)?;
+    if c.x >= 0.0 && c.y >= 0.0 && c.z >= 0.0 {
+        Ok(())
+    } else {
+        Err(SceneError::OutOfRange(what))
+    }
+}
+
+impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
+    /// An empty scene: no objects, black background, no camera yet.
+    pub const fn new() -> Self {
+        Self {
+            spheres: Vec::new(),
+            planes: Vec::new(),
+            materials: Vec::new(),
+            background: Vec3::ZERO,
+            camera: None,
+            resolution: None,
+        }
+    }
+
+    /// Adds a material after checking its values (albedo and tint in [0,1],
+    /// IOR > 0, radiance ≥ 0).
+    pub fn material(&mut self, m: Material) -> Result<MaterialId, SceneError> {
+        match m {
+            Material::Diffuse(c) => check_unit_range(c, "albedo")?,
+            Material::Mirror(c) => check_unit_range(c, "mirror reflectance")?,
+            Material::Glass(ior) => {
+                if !ior.is_finite() {
+                    return Err(SceneError::NotFinite);
+                }
+                if !(ior > 0.0) {
+                    return Err(SceneError::OutOfRange("index of refraction"));
+                }
+            }
+            Material::Light(c) => check_non_negative(c, "radiance")?,
+        }
+        let id = self.materials.len() as u16;
+        self.materials
+            .push(m)
+            .map_err(|_| SceneError::Capacity("materials"))?;
+        Ok(MaterialId(id))
+    }
+
+    fn lookup(&self, m: MaterialId) -> Result<&Material, SceneError> {
+        self.materials
+            .get(m.0 as usize)
+            .ok_or(SceneError::UnknownMaterial)
+    }
+
+    /// Adds a sphere (radius > 0).
+    pub fn sphere(
+        &mut self,
+        center: Vec3,
+        radius: f32,
+        m: MaterialId,
+    ) -> Result<ObjectId, SceneError> {
+        check_finite(center)?;
+        if !radius.is_finite() {
+            return Err(SceneError::NotFinite);
+        }
+        if !(radius > 0.0) {
+            return Err(SceneError::OutOfRange("radius"));
+        }
+        if !(radius * radius).is_normal() {
+            return Err(SceneError::OutOfRange(
+                "radius (its square must be a normal f32)",
+            ));
+        }
+        self.lookup(m)?;
+        let id = ObjectId::sphere(self.spheres.len());
+        self.spheres
+            .push(Sphere::new(center, radius, m.0))
+            .map_err(|_| SceneError::Capacity("spheres"))?;
+        Ok(id)
+    }
+
+    /// Adds an infinite two-sided plane through `point` with normal `normal`
+    /// (any non-zero length). A light material is rejected.
+    pub fn plane(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        m: MaterialId,
+    ) -> Result<ObjectId, SceneError> {
+        check_finite(point)?;
+        check_finite(normal)?;
+        let len2 = normal.length_squared();
+        if !(len2 > 0.0) || !len2.is_normal() {
+            // zero, or so small/large that normalising would fail
+            let n = normal * (1.0 / normal.abs().max_component());
+            if !(n.length_squared() > 0.0) || !n.is_finite() {
+                return Err(SceneError::OutOfRange("plane normal (zero)"));
+            }
+            return self.plane(point, n, m);
+        }
+        if let Material::Light(_) = self.lookup(m)? {
+            return Err(SceneError::LightOnPlane);
+        }
+        let id = ObjectId::plane(self.planes.len());
+        self.planes
+            .push(Plane::new(point, normal, m.0))
+            .map_err(|_| SceneError::Capacity("planes"))?;
+        Ok(id)
+    }
+
+    /// Sets the camera (exactly once).
+    pub fn camera(&mut self, spec: CameraSpec) -> Result<(), SceneError> {
+        if self.camera.is_some() {
+            return Err(SceneError::SecondCamera);
+        }
+        spec.validate().map_err(SceneError::Camera)?;
+        self.camera = Some(spec);
+        Ok(())
+    }
+
+    /// Sets the radiance of rays that hit nothing (default black).
+    pub fn background(&mut self, c: Color) -> Result<(), SceneError> {
+        check_non_negative(c, "background radiance")?;
+        self.background = c;
+        Ok(())
+    }
+
+    /// Sets the default image size (each side in 1..=65535).
+    pub fn resolution(&mut self, width: u32, height: u32) -> Result<(), SceneError> {
+        if width == 0 || height == 0 || width > 65_535 || height > 65_535 {
+            return Err(SceneError::OutOfRange("resolution"));
+        }
+        self.resolution = Some((width, height));
+        Ok(())
+    }
+
+    /// Number of spheres added so far.
+    pub fn sphere_count(&self) -> usize {
+        self.spheres.len()
+    }
+
+    /// Finishes the scene: requires a camera, and collects the emitters.
+    pub fn build(self) -> Result<Scene<S, P, M>, SceneError> {
+        let camera = self.camera.ok_or(SceneError::NoCamera)?;
+        let mut lights = Vec::new();
+        for (i, s) in self.spheres.iter().enumerate() {
+            if let Some(Material::Light(le)) = self.materials.get(s.material as usize) {
+                if le.max_component() > 0.0 {
+                    // cannot fail: lights ⊆ spheres and both have capacity S
+                    let _ = lights.push(i as u16);
+                }
+            }
+        }
+        Ok(Scene {
+            spheres: self.spheres,
+            planes: self.planes,
+            materials: self.materials,
+            lights,
+            background: self.background,
+            camera,
+            resolution: self.resolution,
+        })
+    }
+}
+
+impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
+    /// The spheres.
+    pub fn spheres(&self) -> &[Sphere] {
+        &self.spheres
+    }
+
+    /// The planes.
+    pub fn planes(&self) -> &[Plane] {
+        &self.planes
+    }
+
+    /// The materials.
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    /// Indices (into [`Scene::spheres`]) of the spheres that emit.
+    pub fn lights(&self) -> &[u16] {
+        &self.lights
+    }
+
+    /// Radiance of rays that hit nothing.
+    pub fn background(&self) -> Color {
+        self.background
+    }
+
+    /// The camera.
+    pub fn camera(&self) -> &CameraSpec {
+        &self.camera
+    }
+
+    /// The default image size, if the scene sets one.
+    pub fn resolution(&self) -> Option<(u32, u32)> {
+        self.resolution
+    }
+
+    /// A borrowed view of the scene's arrays, independent of the capacities:
+    /// what the integrator works on.
+    pub fn view(&self) -> SceneView<'_> {
+        SceneView {
+            spheres: &self.spheres,
+            planes: &self.planes,
+            materials: &self.materials,
+            lights: &self.lights,
+            background: self.background,
+        }
+    }
+}
+
+/// The arrays of a [`Scene`], borrowed; ray queries live here.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneView<'a> {
+    /// The spheres.
+    pub spheres: &'a [Sphere],
+    /// The planes.
+    pub planes: &'a [Plane],
+    /// The materials.
+    pub materials: &'a [Material],
+    /// Indices of emitting spheres.
+    pub lights: &'a [u16],
+    /// Background radiance.
+    pub background: Color,
+}
+
+impl SceneView<'_> {
+    /// The closest intersection of `ray` in `(0, ∞)`. `from` is the object
+    /// the ray leaves (or [`ObjectId::NONE`]): a plane is never hit again by a
+    /// ray leaving it, and a sphere only on its far side if the ray enters it.
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray, from: ObjectId) -> Option<Hit> {
+        let mut t_best = f32::INFINITY;
+        let mut best = ObjectId::NONE;
+        for (i, s) in self.spheres.iter().enumerate() {
+            let id = ObjectId::sphere(i);
+            let t = if id == from {
+                s.intersect_from_surface(ray, t_best)
+            } else {
+                s.intersect(ray, t_best)
+            };
+            if let Some(t) = t {
+                t_best = t;
+                best = id;
+            }
+        }
+        for (i, p) in self.planes.iter().enumerate() {
+            let id = ObjectId::plane(i);
+            if id == from {
+                continue;
+            }
+            if let Some(t) = p.intersect(ray, t_best) {
+                t_best = t;
+                best = id;
+            }
+        }
+        if let Some(i) = best.as_sphere() {
+            self.spheres.get(i).map(|s| s.hit(ray, t_best, best))
+        } else if let Some(i) = best.as_plane() {
+            self.planes.get(i).map(|p| p.hit(ray, t_best, best))
+        } else {
+            None
+        }
+    }
+
+    /// Whether anything but the objects `from` (where the ray starts) and
+    /// `target` (the light it aims at) blocks `ray` before `t_max`.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
+        for (i, s) in self.spheres.iter().enumerate() {
+            let id = ObjectId::sphere(i);
+            if id == target {
+                continue;
+            }
+            let t = if id == from {
+                s.intersect_from_surface(ray, t_max)
+            } else {
+                s.intersect(ray, t_max)
+            };
+            if t.is_some() {
+                return true;
+            }
+        }
+        for (i, p) in self.planes.iter().enumerate() {
+            if ObjectId::plane(i) != from && p.intersect(ray, t_max).is_some() {
+                return true;
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam() -> CameraSpec {
+        CameraSpec {
+            eye: Vec3::new(0.0, 0.0, 5.0),
+            target: Vec3::ZERO,
+            up: Vec3::new(0.0, 1.0, 0.0),
+            vfov_deg: 45.0,
+        }
+    }
+
+    #[test]
+    fn capacity_is_enforced() {
+        let mut b: SceneBuilder<2, 1, 1> = SceneBuilder::new();
+        let m = b.material(Material::Diffuse(Vec3::splat(0.5))).unwrap();
+        assert_eq!(
+            b.material(Material::Mirror(Vec3::ONE)),
+            Err(SceneError::Capacity("materials"))
+        );
+        b.sphere(Vec3::ZERO, 1.0, m).unwrap();
+        b.sphere(Vec3::ONE, 1.0, m).unwrap();
+        assert_eq!(
+            b.sphere(Vec3::ONE, 1.0, m),
+            Err(SceneError::Capacity("spheres"))
+        );
+        b.plane(Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), m).unwrap();
+        assert_eq!(
+            b.plane(Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), m),
+            Err(SceneError::Capacity("planes"))
+        );
+    }
+
+    #[test]
+    fn values_are_validated() {
+        let mut b: SceneBuilder = SceneBuilder::new();
+        assert_eq!(
+            b.material(Material::Diffuse(Vec3::new(0.5, 1.5, 0.0))),
+            Err(SceneError::OutOfRange("albedo"))
+        );
+        assert_eq!(
+            b.material(Material::Glass(0.0)),
+            Err(SceneError::OutOfRange("index of refraction"))
+        );
+        assert_eq!(
+            b.material(Material::Light(Vec3::new(1.0, -1.0, 0.0))),
+            Err(SceneError::OutOfRange("radiance"))
+        );
+        let lamp = b.material(Material::Light(Vec3::ONE)).unwrap();
+        assert_eq!(
+            b.sphere(Vec3::ZERO, 0.0, lamp),
+            Err(SceneError::OutOfRange("radius"))
+        );
+        assert_eq!(
+            b.plane(Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), lamp),
+            Err(SceneError::LightOnPlane)
+        );
+        assert_eq!(
+            b.plane(Vec3::ZERO, Vec3::ZERO, lamp),
+            Err(SceneError::OutOfRange("plane normal (zero)"))
+        );
+        assert_eq!(
+            b.sphere(Vec3::ZERO, 1.0, MaterialId(7)),
+            Err(SceneError::UnknownMaterial)
+        );
+        assert_eq!(b.clone().build().err(), Some(SceneError::NoCamera));
+        b.camera(cam()).unwrap();
+        assert_eq!(b.camera(cam()), Err(SceneError::SecondCamera));
+    }
+
+    #[test]
+    fn tiny_plane_normals_are_accepted() {
+        let mut b: SceneBuilder = SceneBuilder::new();
+        let m = b.material(Material::Diffuse(Vec3::splat(0.5))).unwrap();
+        b.plane(Vec3::ZERO, Vec3::new(0.0, 1e-30, 0.0), m).unwrap();
+        b.camera(cam()).unwrap();
+        let s: Scene = b.build().unwrap();
+        assert_eq!(s.planes()[0].normal, Vec3::new(0.0, 1.0, 0.0));
+    }
+
+    #[test]
+    fn queries_skip_the_surface_a_ray_leaves() {
+        let mut b: SceneBuilder = SceneBuilder::new();
+        let m = b.material(Material::Diffuse(Vec3::splat(0.5))).unwrap();
+        let s = b.sphere(Vec3::ZERO, 1.0, m).unwrap();
+        let p = b
+            .plane(Vec3::new(0.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0), m)
+            .unwrap();
+        b.camera(cam()).unwrap();
+        let scene: Scene = b.build().unwrap();
+        let v = scene.view();
+        // from the sphere's top, going up: nothing
+        let up = Ray::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        assert!(v.closest_hit(&up, s).is_none());
+        // from the sphere's top, going down: far side of the sphere at t = 2
+        let down = Ray::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, -1.0, 0.0));
+        let h = v.closest_hit(&down, s).unwrap();
+        assert_eq!((h.object, h.t), (s, 2.0));
+        // from the plane, going down: nothing
+        let below = Ray::new(Vec3::new(3.0, -1.0, 0.0), Vec3::new(0.0, -1.0, 0.0));
+        assert!(v.closest_hit(&below, p).is_none());
+        assert!(!v.occluded(&below, 10.0, p, ObjectId::NONE));
+        assert!(v.occluded(&down, 10.0, ObjectId::NONE, ObjectId::NONE));
+    }
+}
