@@ -360,7 +360,7 @@ pub fn radiance(
                 if !(stream.next_f32() < p) {
                     break;
                 }
-                thr = thr * (1.0 / p);
+                thr *= 1.0 / p;
             }
         }
         if depth >= opts.max_depth {

@@ -35,6 +35,9 @@
 #![deny(missing_docs)]
 #![deny(missing_debug_implementations)]
 #![deny(trivial_casts)]
+// `!(x > 0.0)` is deliberate throughout: unlike `x <= 0.0` it is also true
+// for NaN, which is how invalid values are rejected without a panic.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod camera;
 pub mod film;

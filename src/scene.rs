@@ -283,11 +283,11 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         let camera = self.camera.ok_or(SceneError::NoCamera)?;
         let mut lights = Vec::new();
         for (i, s) in self.spheres.iter().enumerate() {
-            if let Some(Material::Light(le)) = self.materials.get(s.material as usize) {
-                if le.max_component() > 0.0 {
-                    // cannot fail: lights ⊆ spheres and both have capacity S
-                    let _ = lights.push(i as u16);
-                }
+            if let Some(Material::Light(le)) = self.materials.get(s.material as usize)
+                && le.max_component() > 0.0
+            {
+                // cannot fail: lights ⊆ spheres and both have capacity S
+                let _ = lights.push(i as u16);
             }
         }
         Ok(Scene {
