@@ -6,7 +6,7 @@ use micropt::Options;
 use micropt_host::image::{Image, OutputFormat};
 use micropt_host::metrics::compare;
 use micropt_host::render::{RenderJob, load_scene, render};
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -111,6 +111,14 @@ pub fn main() -> ExitCode {
     }
 }
 
+/// Prints to stdout; a closed pipe gives an error message, not a panic.
+fn say(text: String) -> Result<(), String> {
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{text}")
+        .and_then(|_| out.flush())
+        .map_err(|e| format!("cannot write to stdout: {e}"))
+}
+
 fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
     let output = match a.output {
         Some(o) => o,
@@ -152,24 +160,24 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
     out.image.save(&output, a.exposure)?;
     if a.json {
         let s = &out.stats;
-        println!(
-            "{{\"scene\":{:?},\"output\":{:?},\"width\":{},\"height\":{},\"spp\":{},\"seed\":{},\"seconds\":{:.6},\"paths\":{},\"rays\":{},\"camera_rays\":{},\"bounce_rays\":{},\"shadow_rays\":{},\"nonfinite\":{},\"threads\":{},\"rays_per_second\":{:.0}}}",
-            a.scene.display().to_string(),
-            output.display().to_string(),
-            width,
-            height,
-            a.spp,
-            a.seed,
-            out.seconds,
-            s.paths,
-            s.rays(),
-            s.paths,
-            s.bounce_rays,
-            s.shadow_rays,
-            s.nonfinite,
-            out.threads,
-            s.rays() as f64 / out.seconds.max(1e-9),
-        );
+        let v = serde_json::json!({
+            "scene": a.scene.display().to_string(),
+            "output": output.display().to_string(),
+            "width": width,
+            "height": height,
+            "spp": a.spp,
+            "seed": a.seed,
+            "seconds": out.seconds,
+            "paths": s.paths,
+            "rays": s.rays(),
+            "camera_rays": s.paths,
+            "bounce_rays": s.bounce_rays,
+            "shadow_rays": s.shadow_rays,
+            "nonfinite": s.nonfinite,
+            "threads": out.threads,
+            "rays_per_second": s.rays() as f64 / out.seconds.max(1e-9),
+        });
+        say(v.to_string())?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -178,10 +186,10 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode, String> {
     let img = Image::load_pfm(&a.image)?;
     let reference = Image::load_pfm(&a.reference)?;
     let e = compare(&img, &reference)?;
-    println!(
+    say(format!(
         "mse {:.6e}\nrmse {:.6e}\nrelmse {:.6e}\nmean_diff {:+.6e}",
         e.mse, e.rmse, e.rel_mse, e.mean_diff
-    );
+    ))?;
     match a.max_rmse {
         Some(max) if e.rmse > max => {
             eprintln!("micropt: rmse {:.6e} exceeds --max-rmse {max:e}", e.rmse);

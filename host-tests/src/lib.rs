@@ -7,6 +7,7 @@
 
 pub mod image;
 pub mod metrics;
+pub mod reference;
 pub mod render;
 
 pub use image::Image;

@@ -1,0 +1,261 @@
+//! The `micropt` command line: outputs, JSON figures, and one clear error
+//! message with a non-zero exit (never a panic) for every bad input.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_micropt"))
+}
+
+fn scene(name: &str) -> PathBuf {
+    micropt_host::reference::scenes_dir().join(name)
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("micropt-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn run(args: &[&str]) -> Output {
+    bin()
+        .args(args)
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .unwrap()
+}
+
+/// A failed run: non-zero exit, a message on stderr containing `needle`,
+/// and no panic or backtrace.
+fn assert_clean_error(out: &Output, needle: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "succeeded; stderr: {err}");
+    assert!(err.contains(needle), "stderr lacks {needle:?}: {err}");
+    assert!(
+        !err.contains("panicked") && !err.contains("backtrace"),
+        "panic: {err}"
+    );
+}
+
+#[test]
+fn renders_png_pfm_and_rgb565_with_json() {
+    let png = tmp("c.png");
+    let out = run(&[
+        "render",
+        scene("cornell.scene").to_str().unwrap(),
+        "--spp",
+        "2",
+        "-o",
+        png.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let line = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(line.lines().count(), 1);
+    let v: serde_json::Value = serde_json::from_str(line.trim()).unwrap();
+    assert_eq!(v["width"], 64);
+    assert_eq!(v["height"], 64);
+    assert_eq!(v["spp"], 2);
+    assert_eq!(v["paths"], 64 * 64 * 2);
+    assert_eq!(v["nonfinite"], 0);
+    let rays = v["rays"].as_u64().unwrap();
+    let parts = v["camera_rays"].as_u64().unwrap()
+        + v["bounce_rays"].as_u64().unwrap()
+        + v["shadow_rays"].as_u64().unwrap();
+    assert_eq!(rays, parts);
+    assert!(v["seconds"].as_f64().unwrap() > 0.0 && v["threads"].as_u64().unwrap() >= 1);
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[1..4], b"PNG");
+
+    let pfm = tmp("c.pfm");
+    let out = run(&[
+        "render",
+        scene("furnace.scene").to_str().unwrap(),
+        "--spp",
+        "1",
+        "--size",
+        "8x6",
+        "-o",
+        pfm.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let img = micropt_host::Image::load_pfm(&pfm).unwrap();
+    assert_eq!((img.width, img.height), (8, 6));
+
+    let raw = tmp("c.rgb565");
+    let out = run(&[
+        "render",
+        scene("furnace.scene").to_str().unwrap(),
+        "--spp",
+        "1",
+        "--size",
+        "8x6",
+        "-o",
+        raw.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    assert_eq!(std::fs::read(&raw).unwrap().len(), 8 * 6 * 2);
+}
+
+#[test]
+fn output_does_not_depend_on_threads() {
+    let a = tmp("t1.pfm");
+    let b = tmp("t2.pfm");
+    for (t, p) in [("1", &a), ("2", &b)] {
+        let out = run(&[
+            "render",
+            scene("cornell.scene").to_str().unwrap(),
+            "--spp",
+            "3",
+            "--threads",
+            t,
+            "-o",
+            p.to_str().unwrap(),
+        ]);
+        assert!(out.status.success());
+    }
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+}
+
+#[test]
+fn missing_file() {
+    assert_clean_error(
+        &run(&["render", "/nonexistent/x.scene"]),
+        "cannot read scene /nonexistent/x.scene",
+    );
+}
+
+#[test]
+fn unreadable_file_is_a_directory() {
+    assert_clean_error(
+        &run(&[
+            "render",
+            std::env::temp_dir().to_str().unwrap(),
+            "-o",
+            tmp("d.png").to_str().unwrap(),
+        ]),
+        "cannot read scene",
+    );
+}
+
+#[test]
+fn malformed_scene_names_its_line() {
+    let p = tmp("bad.scene");
+    std::fs::write(
+        &p,
+        "camera 0 0 4  0 0 0  0 1 0  40\n# fine\nsphere 0 0 0 -1 grey\n",
+    )
+    .unwrap();
+    let out = run(&[
+        "render",
+        p.to_str().unwrap(),
+        "-o",
+        tmp("bad.png").to_str().unwrap(),
+    ]);
+    assert_clean_error(&out, "line 3: unknown material");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
+}
+
+#[test]
+fn unknown_output_extension() {
+    assert_clean_error(
+        &run(&[
+            "render",
+            scene("furnace.scene").to_str().unwrap(),
+            "-o",
+            "x.jpg",
+        ]),
+        "unknown output extension",
+    );
+}
+
+#[test]
+fn zero_size_and_zero_spp() {
+    let s = scene("furnace.scene");
+    assert_clean_error(
+        &run(&["render", s.to_str().unwrap(), "--size", "0x10"]),
+        "at least 1",
+    );
+    assert_clean_error(
+        &run(&["render", s.to_str().unwrap(), "--size", "10"]),
+        "is not WxH",
+    );
+    assert_clean_error(
+        &run(&["render", s.to_str().unwrap(), "--spp", "0"]),
+        "--spp",
+    );
+    assert_clean_error(
+        &run(&["render", s.to_str().unwrap(), "--threads", "0"]),
+        "--threads",
+    );
+}
+
+#[test]
+fn unwritable_output() {
+    assert_clean_error(
+        &run(&[
+            "render",
+            scene("furnace.scene").to_str().unwrap(),
+            "--spp",
+            "1",
+            "-o",
+            "/nonexistent/dir/x.png",
+        ]),
+        "cannot create",
+    );
+}
+
+#[test]
+fn compare_reports_and_thresholds() {
+    let data = micropt_host::reference::data_dir();
+    let r = data.join("cornell.pfm");
+    let out = run(&["compare", r.to_str().unwrap(), r.to_str().unwrap()]);
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("mse 0.000000e0") && text.contains("relmse") && text.contains("mean_diff"),
+        "{text}"
+    );
+    let f = data.join("furnace.pfm");
+    let out = run(&["compare", f.to_str().unwrap(), r.to_str().unwrap()]);
+    assert_clean_error(&out, "size mismatch");
+    let img = tmp("c2.pfm");
+    assert!(
+        run(&[
+            "render",
+            scene("cornell.scene").to_str().unwrap(),
+            "--spp",
+            "1",
+            "-o",
+            img.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+    let out = run(&[
+        "compare",
+        img.to_str().unwrap(),
+        r.to_str().unwrap(),
+        "--max-rmse",
+        "0.001",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let out = run(&[
+        "compare",
+        img.to_str().unwrap(),
+        r.to_str().unwrap(),
+        "--max-rmse",
+        "10",
+    ]);
+    assert!(out.status.success());
+    assert_clean_error(
+        &run(&["compare", "/nonexistent.pfm", r.to_str().unwrap()]),
+        "cannot open",
+    );
+}

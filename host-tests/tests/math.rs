@@ -1,0 +1,76 @@
+//! Accuracy of the core's math module against double precision: the
+//! polynomials replace libm's double-precision sinf/cosf/powf (which would
+//! pull soft-double code into the firmware), so they must stay within a few
+//! ulps.
+
+use micropt::math;
+
+fn ulps(a: f32, exact: f64) -> f64 {
+    let ulp = f64::from(f32::EPSILON) * exact.abs().max(f64::from(f32::MIN_POSITIVE));
+    (f64::from(a) - exact).abs() / ulp
+}
+
+#[test]
+fn sqrt_is_correctly_rounded_and_equals_libm() {
+    let mut bits = 1u32;
+    while bits < 0x7f80_0000 {
+        let x = f32::from_bits(bits);
+        assert_eq!(math::sqrt(x), f64::from(x).sqrt() as f32, "sqrt({x:e})");
+        assert_eq!(math::sqrt(x).to_bits(), libm::sqrtf(x).to_bits());
+        bits += 0x0000_3f1d;
+    }
+    assert!(math::sqrt(-1.0).is_nan());
+}
+
+#[test]
+fn sincos_turns_within_2_ulp_of_one() {
+    let mut worst = 0.0f64;
+    for i in 0..1_000_000u32 {
+        let t = i as f32 / 1_000_000.0;
+        let (s, c) = math::sincos_turns(t);
+        let a = f64::from(t) * std::f64::consts::TAU;
+        // absolute error in units of ulp(1): values cross zero
+        worst = worst
+            .max((f64::from(s) - a.sin()).abs())
+            .max((f64::from(c) - a.cos()).abs());
+    }
+    let worst = worst / f64::from(f32::EPSILON);
+    assert!(worst <= 2.0, "worst {worst} ulp(1)");
+}
+
+#[test]
+fn log2_exp2_powf_within_a_few_ulp() {
+    let mut worst_log = 0.0f64;
+    let mut worst_pow = 0.0f64;
+    let mut x = 1.0e-30f32;
+    while x < 1.0e30 {
+        let e = f64::from(x).log2();
+        // near log2 = 0 measure against ulp(1)
+        let err =
+            (f64::from(math::log2(x)) - e).abs() / (f64::from(f32::EPSILON) * e.abs().max(1.0));
+        worst_log = worst_log.max(err);
+        // the sRGB curve's domain
+        if (0.003..=1.0).contains(&x) {
+            worst_pow = worst_pow.max(ulps(math::powf(x, 1.0 / 2.4), f64::from(x).powf(1.0 / 2.4)));
+        }
+        x *= 1.0123;
+    }
+    assert!(worst_log < 2.0, "log2 worst {worst_log} ulp");
+    assert!(worst_pow < 4.0, "powf worst {worst_pow} ulp on [0.003, 1]");
+    let mut worst_exp = 0.0f64;
+    for i in -1260..1270 {
+        let y = i as f32 * 0.1 + 0.0371;
+        worst_exp = worst_exp.max(ulps(math::exp2(y), 2f64.powf(f64::from(y))));
+    }
+    assert!(worst_exp < 3.0, "exp2 worst {worst_exp} ulp");
+}
+
+#[test]
+fn micromath_fast_functions_are_approximations() {
+    // documented: ~5 % for sqrt; this is why geometry never uses them
+    let e = (f64::from(math::fast_sqrt(2.0)) - 2f64.sqrt()).abs() / 2f64.sqrt();
+    assert!(e > 1e-4 && e < 0.1, "fast_sqrt rel error {e}");
+    let (s, c) = math::fast_sincos_turns(0.1);
+    let a = 0.1 * std::f64::consts::TAU;
+    assert!((f64::from(s) - a.sin()).abs() < 1e-2 && (f64::from(c) - a.cos()).abs() < 1e-2);
+}

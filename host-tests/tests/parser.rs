@@ -1,0 +1,451 @@
+//! Scene format v1 parser: one test per error kind of SCENE_FORMAT.md, each
+//! checking the reported line, and property tests that no input panics.
+
+use micropt::parse::{ParseError, ParseErrorKind, parse, parse_bytes, parse_with_capacity};
+use micropt::{CameraError, Material, SceneError, Vec3};
+use proptest::prelude::*;
+
+const CAM: &str = "camera 0 0 4  0 0 0  0 1 0  40\n";
+
+fn err(text: &str) -> ParseError {
+    match parse(text) {
+        Ok(_) => panic!("expected an error for:\n{text}"),
+        Err(e) => e,
+    }
+}
+
+/// The error of `body` placed after a valid camera line: its line number is
+/// shifted by one.
+fn err_after_camera(body: &str) -> ParseError {
+    err(&format!("{CAM}{body}"))
+}
+
+#[test]
+fn all_shared_scenes_parse() {
+    for name in [
+        "cornell",
+        "furnace",
+        "smallpt",
+        "sphere-over-plane",
+        "spheres",
+    ] {
+        let path = format!("{}/../scenes/{name}.scene", env!("CARGO_MANIFEST_DIR"));
+        let text = std::fs::read_to_string(&path).unwrap();
+        let s = parse(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(s.resolution().is_some(), "{name}");
+    }
+}
+
+#[test]
+fn cornell_means_what_the_format_says() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/cornell.scene"
+    ))
+    .unwrap();
+    let s = parse(&text).unwrap();
+    assert_eq!(s.planes().len(), 6);
+    assert_eq!(s.spheres().len(), 3);
+    assert_eq!(s.materials().len(), 6);
+    assert_eq!(s.lights(), &[0]);
+    assert_eq!(s.resolution(), Some((64, 64)));
+    assert_eq!(s.camera().vfov_deg, 60.0);
+    assert_eq!(s.materials()[5], Material::Light(Vec3::splat(20.0)));
+    // "plane 1 0 0   -1 0 0   green": unit normal -x, offset -1
+    assert_eq!(s.planes()[5].normal, Vec3::new(-1.0, 0.0, 0.0));
+    assert_eq!(s.planes()[5].offset, -1.0);
+    assert_eq!(s.background(), Vec3::ZERO);
+}
+
+#[test]
+fn comments_blank_lines_tabs_and_crlf() {
+    let s = parse("# c\n\n\tcamera 0 0 4 0 0 0 0 1 0 40 # trailing\r\nmaterial a_b-1 diffuse .25 1 0\r\nsphere 0 0 0 1e0 a_b-1\n").unwrap();
+    assert_eq!(
+        s.materials()[0],
+        Material::Diffuse(Vec3::new(0.25, 1.0, 0.0))
+    );
+}
+
+#[test]
+fn unknown_statement() {
+    let e = err_after_camera("material m diffuse 1 1 1\ncube 0 0 0 1 m\n");
+    assert_eq!((e.line, e.kind), (3, ParseErrorKind::UnknownStatement));
+}
+
+#[test]
+fn unknown_material_kind() {
+    let e = err_after_camera("material m metal 1 1 1\n");
+    assert_eq!((e.line, e.kind), (2, ParseErrorKind::UnknownMaterialKind));
+}
+
+#[test]
+fn wrong_number_of_values() {
+    let cases = [
+        ("sphere 0 0 0 1\n", 5, 4),
+        ("material m diffuse 1 1\n", 5, 4),
+        ("material m glass 1.5 2\n", 3, 4),
+        ("plane 0 0 0 0 1 0 m x\n", 7, 8),
+        ("background 1 1\n", 3, 2),
+        ("resolution 64\n", 2, 1),
+        ("material m\n", 5, 1),
+    ];
+    for (body, expected, found) in cases {
+        let e = err_after_camera(&format!("material m diffuse 1 1 1\n{body}"));
+        assert_eq!(
+            (e.line, e.kind),
+            (3, ParseErrorKind::WrongArgCount { expected, found }),
+            "{body}"
+        );
+    }
+    let e = err("camera 0 0 4 0 0 0 0 1 0\n");
+    assert_eq!(
+        (e.line, e.kind),
+        (
+            1,
+            ParseErrorKind::WrongArgCount {
+                expected: 10,
+                found: 9
+            }
+        )
+    );
+    // far too many tokens is still a count error, not a panic
+    let long = format!("sphere{}\n", " 1".repeat(500));
+    let e = err_after_camera(&long);
+    assert_eq!(
+        (e.line, e.kind),
+        (
+            2,
+            ParseErrorKind::WrongArgCount {
+                expected: 5,
+                found: 255
+            }
+        )
+    );
+}
+
+#[test]
+fn value_not_a_number() {
+    for bad in ["abc", "1,5", "0x10", "1..2", "--1", "1e", ""] {
+        if bad.is_empty() {
+            continue;
+        }
+        let e = err_after_camera(&format!("material m diffuse 1 {bad} 1\n"));
+        assert_eq!((e.line, e.kind), (2, ParseErrorKind::NotANumber), "{bad}");
+    }
+    let e = err_after_camera("resolution 64.5 48\n");
+    assert_eq!((e.line, e.kind), (2, ParseErrorKind::NotANumber));
+}
+
+#[test]
+fn value_not_finite() {
+    for bad in ["nan", "inf", "-inf", "NaN", "infinity", "1e39", "-3.5e38"] {
+        let e = err_after_camera(&format!("material m light 1 {bad} 1\n"));
+        assert_eq!((e.line, e.kind), (2, ParseErrorKind::NotFinite), "{bad}");
+    }
+}
+
+#[test]
+fn values_out_of_range() {
+    let cases = [
+        (
+            "material m diffuse 0.5 1.01 0\n",
+            SceneError::OutOfRange("albedo"),
+        ),
+        (
+            "material m diffuse -0.1 0 0\n",
+            SceneError::OutOfRange("albedo"),
+        ),
+        (
+            "material m mirror 0 2 0\n",
+            SceneError::OutOfRange("mirror reflectance"),
+        ),
+        (
+            "material m light 1 -1 0\n",
+            SceneError::OutOfRange("radiance"),
+        ),
+        (
+            "material m glass 0\n",
+            SceneError::OutOfRange("index of refraction"),
+        ),
+        (
+            "material m glass -1.5\n",
+            SceneError::OutOfRange("index of refraction"),
+        ),
+        (
+            "background 0 -1 0\n",
+            SceneError::OutOfRange("background radiance"),
+        ),
+        ("resolution 0 48\n", SceneError::OutOfRange("resolution")),
+        (
+            "resolution 64 99999999999\n",
+            SceneError::OutOfRange("resolution"),
+        ),
+    ];
+    for (body, want) in cases {
+        let e = err_after_camera(body);
+        assert_eq!((e.line, e.kind), (2, ParseErrorKind::Scene(want)), "{body}");
+    }
+    let e = err_after_camera("material m diffuse 1 1 1\nsphere 0 0 0 0 m\n");
+    assert_eq!(
+        (e.line, e.kind),
+        (3, ParseErrorKind::Scene(SceneError::OutOfRange("radius")))
+    );
+    let e = err_after_camera("material m diffuse 1 1 1\nsphere 0 0 0 -2 m\n");
+    assert_eq!(
+        (e.line, e.kind),
+        (3, ParseErrorKind::Scene(SceneError::OutOfRange("radius")))
+    );
+    let e = err_after_camera("material m diffuse 1 1 1\nplane 0 0 0 0 0 0 m\n");
+    assert_eq!(
+        (e.line, e.kind),
+        (
+            3,
+            ParseErrorKind::Scene(SceneError::OutOfRange("plane normal (zero)"))
+        )
+    );
+}
+
+#[test]
+fn camera_errors() {
+    let fov = |v: &str| err(&format!("camera 0 0 4 0 0 0 0 1 0 {v}\n"));
+    for v in ["0", "180", "-10", "200"] {
+        assert_eq!(
+            fov(v).kind,
+            ParseErrorKind::Scene(SceneError::Camera(CameraError::FovOutOfRange)),
+            "{v}"
+        );
+    }
+    let e = err("# eye = target\n\ncamera 1 2 3  1 2 3  0 1 0  40\n");
+    assert_eq!(
+        (e.line, e.kind),
+        (
+            3,
+            ParseErrorKind::Scene(SceneError::Camera(CameraError::EyeEqualsTarget))
+        )
+    );
+    let e = err("camera 0 0 4  0 0 0  0 0 1  40\n");
+    assert_eq!(
+        (e.line, e.kind),
+        (
+            1,
+            ParseErrorKind::Scene(SceneError::Camera(CameraError::UpParallelToView))
+        )
+    );
+    let e = err("camera 0 0 4  0 0 0  0 0 0  40\n");
+    assert_eq!(
+        (e.line, e.kind),
+        (
+            1,
+            ParseErrorKind::Scene(SceneError::Camera(CameraError::UpParallelToView))
+        )
+    );
+}
+
+#[test]
+fn missing_and_second_camera() {
+    let e = err("material m diffuse 1 1 1\nsphere 0 0 0 1 m\n");
+    assert_eq!((e.line, e.kind), (2, ParseErrorKind::MissingCamera));
+    let e = err("");
+    assert_eq!(e.kind, ParseErrorKind::MissingCamera);
+    let e = err(&format!("{CAM}\n{CAM}"));
+    assert_eq!(
+        (e.line, e.kind),
+        (3, ParseErrorKind::Scene(SceneError::SecondCamera))
+    );
+}
+
+#[test]
+fn unknown_and_redefined_material() {
+    let e = err_after_camera("sphere 0 0 0 1 grey\nmaterial grey diffuse 1 1 1\n");
+    assert_eq!((e.line, e.kind), (2, ParseErrorKind::UnknownMaterial));
+    let e = err_after_camera("material grey diffuse 1 1 1\nplane 0 0 0 0 1 0 gray\n");
+    assert_eq!((e.line, e.kind), (3, ParseErrorKind::UnknownMaterial));
+    let e = err_after_camera("material grey diffuse 1 1 1\nmaterial grey mirror 1 1 1\n");
+    assert_eq!((e.line, e.kind), (3, ParseErrorKind::RedefinedMaterial));
+}
+
+#[test]
+fn bad_names() {
+    for name in ["1abc", "-x", "a.b", "é", &"n".repeat(33)] {
+        let e = err_after_camera(&format!("material {name} diffuse 1 1 1\n"));
+        assert_eq!((e.line, e.kind), (2, ParseErrorKind::BadName), "{name}");
+    }
+    parse(&format!("{CAM}material {} diffuse 1 1 1\n", "n".repeat(32))).unwrap();
+}
+
+#[test]
+fn light_material_on_a_plane() {
+    let e = err_after_camera("material lamp light 5 5 5\nplane 0 0 0 0 1 0 lamp\n");
+    assert_eq!(
+        (e.line, e.kind),
+        (3, ParseErrorKind::Scene(SceneError::LightOnPlane))
+    );
+}
+
+#[test]
+fn repeated_resolution_and_background() {
+    let e = err_after_camera("resolution 4 4\nresolution 8 8\n");
+    assert_eq!(
+        (e.line, e.kind),
+        (3, ParseErrorKind::Repeated("resolution"))
+    );
+    let e = err_after_camera("background 1 1 1\nbackground 0 0 0\n");
+    assert_eq!(
+        (e.line, e.kind),
+        (3, ParseErrorKind::Repeated("background"))
+    );
+}
+
+#[test]
+fn more_objects_than_capacity_names_the_line() {
+    let mut text = String::from(CAM);
+    text.push_str("material m diffuse 1 1 1\n");
+    for i in 0..4 {
+        text.push_str(&format!("sphere {i} 0 0 0.5 m\n"));
+    }
+    let e = parse_with_capacity::<3, 2, 2>(&text).unwrap_err();
+    assert_eq!(
+        (e.line, e.kind),
+        (6, ParseErrorKind::Scene(SceneError::Capacity("spheres")))
+    );
+    let mut planes = String::from(CAM);
+    planes.push_str("material m diffuse 1 1 1\n");
+    for _ in 0..3 {
+        planes.push_str("plane 0 0 0 0 1 0 m\n");
+    }
+    let e = parse_with_capacity::<3, 2, 2>(&planes).unwrap_err();
+    assert_eq!(
+        (e.line, e.kind),
+        (5, ParseErrorKind::Scene(SceneError::Capacity("planes")))
+    );
+    let mats = format!(
+        "{CAM}material a diffuse 1 1 1\nmaterial b diffuse 1 1 1\nmaterial c diffuse 1 1 1\n"
+    );
+    let e = parse_with_capacity::<3, 2, 2>(&mats).unwrap_err();
+    assert_eq!(
+        (e.line, e.kind),
+        (4, ParseErrorKind::Scene(SceneError::Capacity("materials")))
+    );
+    // the default build takes 128 spheres, and rejects the 129th at its line
+    let mut many = format!("{CAM}material m diffuse 1 1 1\n");
+    for i in 0..129 {
+        many.push_str(&format!("sphere {i} 0 0 0.5 m\n"));
+    }
+    let e = parse(&many).unwrap_err();
+    assert_eq!(
+        (e.line, e.kind),
+        (131, ParseErrorKind::Scene(SceneError::Capacity("spheres")))
+    );
+}
+
+#[test]
+fn invalid_utf8_names_its_line() {
+    let e = parse_bytes(b"camera 0 0 4 0 0 0 0 1 0 40\n# ok\nmaterial m diffuse 1 1 \xff\n")
+        .unwrap_err();
+    assert_eq!((e.line, e.kind), (3, ParseErrorKind::InvalidUtf8));
+}
+
+#[test]
+fn errors_display_their_line() {
+    let e = err_after_camera("sphere 0 0 0 1 nope\n");
+    assert_eq!(
+        e.to_string(),
+        "line 2: unknown material (define it before use)"
+    );
+    let e = err_after_camera("material m diffuse 1 1\n");
+    assert_eq!(
+        e.to_string(),
+        "line 2: wrong number of values: expected 5, found 4"
+    );
+}
+
+const WORDS: &[&str] = &[
+    "camera",
+    "resolution",
+    "background",
+    "material",
+    "sphere",
+    "plane",
+    "diffuse",
+    "mirror",
+    "glass",
+    "light",
+    "m",
+    "grey",
+    "lamp",
+    "0",
+    "1",
+    "-1",
+    "0.5",
+    "1e5",
+    "1e39",
+    "nan",
+    "inf",
+    "-0",
+    ".",
+    "#",
+    "\t",
+    "180",
+    "65536",
+    "4294967296",
+    "é",
+    "\u{0}",
+    "x-y_z",
+];
+
+fn token_soup() -> impl Strategy<Value = String> {
+    prop::collection::vec(
+        prop::collection::vec(prop::sample::select(WORDS), 0..14).prop_map(|w| w.join(" ")),
+        0..12,
+    )
+    .prop_map(|lines| lines.join("\n"))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
+
+    /// Parsing never panics on arbitrary bytes, and an error names a line
+    /// that exists.
+    #[test]
+    fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..600)) {
+        match parse_bytes(&bytes) {
+            Ok(_) => {}
+            Err(e) => {
+                let lines = bytes.split(|&b| b == b'\n').count() as u32;
+                prop_assert!(e.line >= 1 && e.line <= lines.max(1), "{e:?} of {lines}");
+                prop_assert!(!e.to_string().is_empty());
+            }
+        }
+    }
+
+    /// Token soups of the format's own words: never a panic, errors on an
+    /// existing line, and a successful parse always has a camera.
+    #[test]
+    fn token_soups_never_panic(text in token_soup()) {
+        match parse(&text) {
+            Ok(s) => prop_assert!(s.camera().vfov_deg > 0.0),
+            Err(e) => {
+                let lines = text.split('\n').count() as u32;
+                prop_assert!(e.line >= 1 && e.line <= lines.max(1), "{e:?}");
+            }
+        }
+    }
+
+    /// Valid scenes with a random prefix of statements: a valid scene
+    /// followed by garbage fails at the garbage's line.
+    #[test]
+    fn error_line_is_the_garbage_line(n in 0usize..20, junk in "[a-z]{1,8} [0-9]{1,3}") {
+        let mut text = String::from(CAM);
+        text.push_str("material m diffuse 0.5 0.5 0.5\n");
+        for i in 0..n {
+            text.push_str(&format!("sphere {i} 0 0 0.5 m\n"));
+        }
+        text.push_str(&junk);
+        text.push('\n');
+        let words: Vec<&str> = junk.split(' ').collect();
+        if !["camera", "resolution", "background", "material", "sphere", "plane"].contains(&words[0]) {
+            let e = parse(&text).unwrap_err();
+            prop_assert_eq!(e.line as usize, n + 3);
+        }
+    }
+}
