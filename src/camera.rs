@@ -120,6 +120,13 @@ impl Camera {
         self.forward
     }
 
+    /// Cosine of the half-angle of the narrowest cone around the view axis
+    /// that contains every camera ray (the one through a film corner).
+    pub fn view_cos(&self) -> f32 {
+        // forward is unit and orthogonal to the corner's film offset
+        1.0 / self.corner.length()
+    }
+
     /// The primary ray through film position (`fx`, `fy`) in pixel units:
     /// `(px + u, py + v)` for pixel (px, py) and an offset (u, v) in [0,1)².
     #[inline]

@@ -81,6 +81,8 @@ pub struct Stats {
     pub shadow_rays: u64,
     /// Samples whose radiance was NaN or infinite (counted, then dropped).
     pub nonfinite: u64,
+    /// Rays that escaped a closed scene: numerical leaks (should be 0).
+    pub leaks: u64,
 }
 
 impl Stats {
@@ -95,6 +97,7 @@ impl Stats {
         self.bounce_rays += o.bounce_rays;
         self.shadow_rays += o.shadow_rays;
         self.nonfinite += o.nonfinite;
+        self.leaks += o.leaks;
     }
 }
 
@@ -149,81 +152,86 @@ impl SceneView<'_> {
         }
     }
 
-    /// Picks a light for next-event estimation at `x`; returns the choice and
-    /// the weight sum (needed later for MIS).
+    /// Picks a light for next-event estimation at `x` (with several lights,
+    /// by one uniform number from `stream`); returns the choice and the
+    /// weight sum (needed later for MIS).
     #[inline]
-    fn choose_light(&self, x: Vec3, n: Vec3, u: f32) -> (Option<LightChoice>, f32) {
-        match self.lights {
-            [] => (None, 0.0),
-            [one] => {
-                let i = *one as usize;
-                let ok = self.spheres.get(i).is_some_and(|s| {
-                    let to_c = s.center - x;
-                    to_c.length_squared() > s.radius2 && n.dot(to_c) >= -s.radius
-                });
-                (
-                    if ok {
-                        Some(LightChoice {
-                            sphere: i,
-                            p_sel: 1.0,
-                        })
-                    } else {
-                        None
-                    },
-                    1.0,
-                )
-            }
-            many => {
-                let mut sum = 0.0;
-                for &l in many {
-                    if let Some(s) = self.spheres.get(l as usize) {
-                        sum += light_weight(
-                            x,
-                            n,
-                            s.center,
-                            s.radius,
-                            s.radius2,
-                            self.light_lum(l as usize),
-                        );
-                    }
-                }
-                if !(sum > 0.0) {
-                    return (None, 0.0);
-                }
-                let target = u * sum;
-                let mut acc = 0.0;
-                let mut chosen = None;
-                for &l in many {
-                    if let Some(s) = self.spheres.get(l as usize) {
-                        let w = light_weight(
-                            x,
-                            n,
-                            s.center,
-                            s.radius,
-                            s.radius2,
-                            self.light_lum(l as usize),
-                        );
-                        if w > 0.0 {
-                            acc += w;
-                            chosen = Some(LightChoice {
-                                sphere: l as usize,
-                                p_sel: w / sum,
-                            });
-                            if target < acc {
-                                break;
-                            }
-                        }
-                    }
-                }
-                (chosen, sum)
+    fn choose_light<const MANY: bool>(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        stream: &mut SampleStream,
+    ) -> (Option<LightChoice>, f32) {
+        if !MANY {
+            let Some(&one) = self.lights.first() else {
+                return (None, 0.0);
+            };
+            let i = one as usize;
+            let ok = self.spheres.get(i).is_some_and(|s| {
+                let to_c = s.center - x;
+                to_c.length_squared() > s.radius2 && n.dot(to_c) >= -s.radius
+            });
+            return (
+                if ok {
+                    Some(LightChoice {
+                        sphere: i,
+                        p_sel: 1.0,
+                    })
+                } else {
+                    None
+                },
+                1.0,
+            );
+        }
+        let u = stream.next_f32();
+        let mut sum = 0.0;
+        for &l in self.lights {
+            if let Some(s) = self.spheres.get(l as usize) {
+                sum += light_weight(
+                    x,
+                    n,
+                    s.center,
+                    s.radius,
+                    s.radius2,
+                    self.light_lum(l as usize),
+                );
             }
         }
+        if !(sum > 0.0) {
+            return (None, 0.0);
+        }
+        let target = u * sum;
+        let mut acc = 0.0;
+        let mut chosen = None;
+        for &l in self.lights {
+            if let Some(s) = self.spheres.get(l as usize) {
+                let w = light_weight(
+                    x,
+                    n,
+                    s.center,
+                    s.radius,
+                    s.radius2,
+                    self.light_lum(l as usize),
+                );
+                if w > 0.0 {
+                    acc += w;
+                    chosen = Some(LightChoice {
+                        sphere: l as usize,
+                        p_sel: w / sum,
+                    });
+                    if target < acc {
+                        break;
+                    }
+                }
+            }
+        }
+        (chosen, sum)
     }
 
     /// Solid-angle pdf with which next-event estimation at `prev` would have
     /// produced a direction toward light sphere `i` (selection included).
     #[inline]
-    fn light_pdf(&self, prev: &PrevVertex, i: usize) -> f32 {
+    fn light_pdf<const MANY: bool>(&self, prev: &PrevVertex, i: usize) -> f32 {
         let Some(s) = self.spheres.get(i) else {
             return 0.0;
         };
@@ -232,7 +240,7 @@ impl SceneView<'_> {
         if !(d2 > s.radius2) || prev.normal.dot(to_c) < -s.radius {
             return 0.0;
         }
-        if self.lights.len() == 1 {
+        if !MANY {
             1.0 / (math::TWO_PI * light::one_minus_cos_max(s.radius2, d2))
         } else if prev.weight_sum > 0.0 {
             // p_sel · pdf_cone = (lum · omc / W) · 1 / (2π omc)
@@ -245,8 +253,29 @@ impl SceneView<'_> {
 
 /// Estimates the radiance arriving along the camera ray `ray` with one path.
 ///
-/// Pure function of its inputs: the same stream gives the same bits.
+/// Pure function of its inputs: the same stream gives the same bits. The
+/// integrator is compiled in variants for the scene's class (with or
+/// without mirrors and glass; one light or several), chosen here once per
+/// path, so that a scene pays only for what it contains.
 pub fn radiance(
+    scene: &SceneView<'_>,
+    ray: Ray,
+    stream: &mut SampleStream,
+    opts: &Options,
+    stats: &mut Stats,
+) -> Color {
+    match (scene.specular, scene.lights.len() > 1) {
+        (false, false) => trace::<false, false>(scene, ray, stream, opts, stats),
+        (false, true) => trace::<false, true>(scene, ray, stream, opts, stats),
+        (true, false) => trace::<true, false>(scene, ray, stream, opts, stats),
+        (true, true) => trace::<true, true>(scene, ray, stream, opts, stats),
+    }
+}
+
+/// The path tracer for scenes with (`SPEC`) or without mirrors and glass,
+/// and with several (`MANY`) or at most one light.
+#[inline(always)]
+fn trace<const SPEC: bool, const MANY: bool>(
     scene: &SceneView<'_>,
     ray: Ray,
     stream: &mut SampleStream,
@@ -271,8 +300,18 @@ pub fn radiance(
     stats.paths += 1;
     let mut depth = 0u32;
     loop {
-        let Some(hit) = scene.closest_hit(&ray, from) else {
-            l += thr * scene.background;
+        let found = if depth == 0 {
+            scene.closest_hit_primary(&ray)
+        } else {
+            scene.closest_hit(&ray, from)
+        };
+        let Some(hit) = found else {
+            if scene.closed {
+                // nothing can escape a closed scene: a numerical leak
+                stats.leaks += 1;
+            } else {
+                l += thr * scene.background;
+            }
             break;
         };
         let Some(&mat) = scene.materials.get(hit.material as usize) else {
@@ -292,7 +331,7 @@ pub fn radiance(
                                 let pl = hit
                                     .object
                                     .as_sphere()
-                                    .map_or(0.0, |i| scene.light_pdf(&prev, i));
+                                    .map_or(0.0, |i| scene.light_pdf::<MANY>(&prev, i));
                                 power_heuristic(prev.bsdf_pdf, pl)
                             }
                         }
@@ -309,9 +348,8 @@ pub fn radiance(
                     -hit.normal
                 };
                 let mut weight_sum = 0.0;
-                if opts.strategy != Strategy::BsdfOnly {
-                    let u_sel = stream.next_f32();
-                    let (choice, sum) = scene.choose_light(hit.point, n, u_sel);
+                if opts.strategy != Strategy::BsdfOnly && !scene.lights.is_empty() {
+                    let (choice, sum) = scene.choose_light::<MANY>(hit.point, n, stream);
                     weight_sum = sum;
                     if let Some(c) = choice {
                         let u = if depth == 0 && opts.stratified {
@@ -339,12 +377,12 @@ pub fn radiance(
                 specular = false;
                 ray = hit.spawn(dir);
             }
-            Material::Mirror(tint) => {
+            Material::Mirror(tint) if SPEC => {
                 thr *= tint;
                 specular = true;
                 ray = hit.spawn(material::reflect(ray.dir, hit.normal));
             }
-            Material::Glass(ior) => {
+            Material::Glass(ior) if SPEC => {
                 let (dir, f) =
                     material::sample_dielectric(ray.dir, hit.normal, ior, stream.next_f32());
                 thr *= f;
@@ -352,10 +390,17 @@ pub fn radiance(
                 specular = true;
                 ray = hit.spawn(dir);
             }
+            // unreachable: the analysis compiled this variant for a scene
+            // without mirrors or glass
+            Material::Mirror(_) | Material::Glass(_) => break,
         }
         depth += 1;
         if depth >= opts.rr_start {
-            let p = thr.max_component() * rr_scale;
+            let p = if SPEC {
+                thr.max_component() * rr_scale
+            } else {
+                thr.max_component()
+            };
             if p < 1.0 {
                 if !(stream.next_f32() < p) {
                     break;

@@ -21,7 +21,7 @@
 //! # Ok::<(), micropt::parse::ParseError>(())
 //! ```
 //!
-//! Modules, one per concept: [`math`] (every float function, explicitly),
+//! Modules, one per concept: [`analysis`] (work a scene never needs), [`math`] (every float function, explicitly),
 //! [`geometry`] (vectors, rays, spheres, planes), [`camera`], [`material`],
 //! [`light`], [`sampler`], [`scene`], [`parse`], [`integrator`], [`film`],
 //! [`render`].
@@ -39,6 +39,7 @@
 // for NaN, which is how invalid values are rejected without a panic.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod analysis;
 pub mod camera;
 pub mod film;
 pub mod geometry;

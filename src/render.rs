@@ -40,9 +40,13 @@ impl<'a> Renderer<'a> {
         width: u32,
         height: u32,
     ) -> Result<Self, CameraError> {
+        let camera = Camera::new(scene.camera(), width, height)?;
+        // a little wider than the frustum: culling must never drop a sphere
+        // that a ray through the film's edge could graze
+        let view_cos = camera.view_cos() - 1e-4;
         Ok(Self {
-            scene: scene.view(),
-            camera: Camera::new(scene.camera(), width, height)?,
+            scene: scene.view(view_cos),
+            camera,
             seed: 0,
             options: Options::default(),
         })

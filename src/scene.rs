@@ -1,6 +1,7 @@
 //! The fixed-capacity scene: objects, materials, lights, camera, validated
 //! on construction, and the two ray queries (closest hit, occlusion).
 
+use crate::analysis::{Analysis, analyse};
 use crate::camera::{CameraError, CameraSpec};
 use crate::geometry::{Color, Hit, ObjectId, Plane, Ray, Sphere, Vec3};
 use crate::material::Material;
@@ -95,7 +96,7 @@ pub struct Scene<
     spheres: Vec<Sphere, S>,
     planes: Vec<Plane, P>,
     materials: Vec<Material, M>,
-    lights: Vec<u16, S>,
+    analysis: Analysis<S, P>,
     background: Color,
     camera: CameraSpec,
     resolution: Option<(u32, u32)>,
@@ -278,23 +279,16 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         self.spheres.len()
     }
 
-    /// Finishes the scene: requires a camera, and collects the emitters.
+    /// Finishes the scene: requires a camera, and analyses what work the
+    /// scene can never need ([`crate::analysis`]).
     pub fn build(self) -> Result<Scene<S, P, M>, SceneError> {
         let camera = self.camera.ok_or(SceneError::NoCamera)?;
-        let mut lights = Vec::new();
-        for (i, s) in self.spheres.iter().enumerate() {
-            if let Some(Material::Light(le)) = self.materials.get(s.material as usize)
-                && le.max_component() > 0.0
-            {
-                // cannot fail: lights ⊆ spheres and both have capacity S
-                let _ = lights.push(i as u16);
-            }
-        }
+        let analysis = analyse(&self.spheres, &self.planes, &self.materials, &camera);
         Ok(Scene {
             spheres: self.spheres,
             planes: self.planes,
             materials: self.materials,
-            lights,
+            analysis,
             background: self.background,
             camera,
             resolution: self.resolution,
@@ -318,9 +312,15 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
         &self.materials
     }
 
-    /// Indices (into [`Scene::spheres`]) of the spheres that emit.
+    /// Indices (into [`Scene::spheres`]) of the emitting spheres that a
+    /// path can reach (see [`crate::analysis`]).
     pub fn lights(&self) -> &[u16] {
-        &self.lights
+        &self.analysis.lights
+    }
+
+    /// What the load-time analysis found.
+    pub fn analysis(&self) -> &Analysis<S, P> {
+        &self.analysis
     }
 
     /// Radiance of rays that hit nothing.
@@ -339,19 +339,30 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
     }
 
     /// A borrowed view of the scene's arrays, independent of the capacities:
-    /// what the integrator works on.
-    pub fn view(&self) -> SceneView<'_> {
+    /// what the integrator works on. `view_cos` is the cosine of the
+    /// half-angle of a cone around the view axis that contains every camera
+    /// ray (−1: no culling); spheres outside it are left out of primary-ray
+    /// tests.
+    pub fn view(&self, view_cos: f32) -> SceneView<'_> {
+        let a = &self.analysis;
+        let visible = a.view_keys.partition_point(|&k| k >= view_cos);
         SceneView {
             spheres: &self.spheres,
             planes: &self.planes,
             materials: &self.materials,
-            lights: &self.lights,
+            lights: &a.lights,
+            shadow_spheres: &a.shadow_spheres,
+            shadow_planes: &a.shadow_planes,
+            primary_spheres: a.view_order.get(..visible).unwrap_or(&a.view_order),
             background: self.background,
+            closed: a.closed,
+            specular: a.specular,
         }
     }
 }
 
-/// The arrays of a [`Scene`], borrowed; ray queries live here.
+/// The arrays of a [`Scene`] and its analysis, borrowed; ray queries live
+/// here.
 #[derive(Clone, Copy, Debug)]
 pub struct SceneView<'a> {
     /// The spheres.
@@ -360,10 +371,71 @@ pub struct SceneView<'a> {
     pub planes: &'a [Plane],
     /// The materials.
     pub materials: &'a [Material],
-    /// Indices of emitting spheres.
+    /// Indices of reachable emitting spheres.
     pub lights: &'a [u16],
+    /// Spheres that can block a shadow ray.
+    pub shadow_spheres: &'a [u16],
+    /// Planes that can block a shadow ray.
+    pub shadow_planes: &'a [u16],
+    /// Spheres a camera ray can hit.
+    pub primary_spheres: &'a [u16],
     /// Background radiance.
     pub background: Color,
+    /// No ray can escape (the background is never seen).
+    pub closed: bool,
+    /// Some object is a mirror or glass.
+    pub specular: bool,
+}
+
+/// The nearest hit among `spheres` and `planes` (index iterators), skipping
+/// the surface the ray leaves.
+#[inline(always)]
+fn nearest<'s, 'p>(
+    spheres: impl Iterator<Item = (usize, &'s Sphere)>,
+    planes: impl Iterator<Item = (usize, &'p Plane)>,
+    all_spheres: &[Sphere],
+    all_planes: &[Plane],
+    ray: &Ray,
+    from: ObjectId,
+) -> Option<Hit> {
+    let mut t_best = f32::INFINITY;
+    let mut best = ObjectId::NONE;
+    for (i, s) in spheres {
+        let id = ObjectId::sphere(i);
+        let t = if id == from {
+            s.intersect_from_surface(ray, t_best)
+        } else {
+            s.intersect(ray, t_best)
+        };
+        if let Some(t) = t {
+            t_best = t;
+            best = id;
+        }
+    }
+    for (i, p) in planes {
+        let id = ObjectId::plane(i);
+        if id == from {
+            continue;
+        }
+        if let Some(t) = p.intersect(ray, t_best) {
+            t_best = t;
+            best = id;
+        }
+    }
+    if let Some(i) = best.as_sphere() {
+        all_spheres.get(i).map(|s| s.hit(ray, t_best, best))
+    } else if let Some(i) = best.as_plane() {
+        all_planes.get(i).map(|p| p.hit(ray, t_best, best))
+    } else {
+        None
+    }
+}
+
+/// The objects of `all` named by the index list `ids`.
+#[inline(always)]
+fn listed<'a, T>(ids: &'a [u16], all: &'a [T]) -> impl Iterator<Item = (usize, &'a T)> + 'a {
+    ids.iter()
+        .filter_map(move |&i| all.get(i as usize).map(|o| (i as usize, o)))
 }
 
 impl SceneView<'_> {
@@ -372,44 +444,36 @@ impl SceneView<'_> {
     /// ray leaving it, and a sphere only on its far side if the ray enters it.
     #[inline]
     pub fn closest_hit(&self, ray: &Ray, from: ObjectId) -> Option<Hit> {
-        let mut t_best = f32::INFINITY;
-        let mut best = ObjectId::NONE;
-        for (i, s) in self.spheres.iter().enumerate() {
-            let id = ObjectId::sphere(i);
-            let t = if id == from {
-                s.intersect_from_surface(ray, t_best)
-            } else {
-                s.intersect(ray, t_best)
-            };
-            if let Some(t) = t {
-                t_best = t;
-                best = id;
-            }
-        }
-        for (i, p) in self.planes.iter().enumerate() {
-            let id = ObjectId::plane(i);
-            if id == from {
-                continue;
-            }
-            if let Some(t) = p.intersect(ray, t_best) {
-                t_best = t;
-                best = id;
-            }
-        }
-        if let Some(i) = best.as_sphere() {
-            self.spheres.get(i).map(|s| s.hit(ray, t_best, best))
-        } else if let Some(i) = best.as_plane() {
-            self.planes.get(i).map(|p| p.hit(ray, t_best, best))
-        } else {
-            None
-        }
+        nearest(
+            self.spheres.iter().enumerate(),
+            self.planes.iter().enumerate(),
+            self.spheres,
+            self.planes,
+            ray,
+            from,
+        )
+    }
+
+    /// The closest intersection of a camera ray: only the spheres that can
+    /// be in view are tested.
+    #[inline]
+    pub fn closest_hit_primary(&self, ray: &Ray) -> Option<Hit> {
+        nearest(
+            listed(self.primary_spheres, self.spheres),
+            self.planes.iter().enumerate(),
+            self.spheres,
+            self.planes,
+            ray,
+            ObjectId::NONE,
+        )
     }
 
     /// Whether anything but the objects `from` (where the ray starts) and
-    /// `target` (the light it aims at) blocks `ray` before `t_max`.
+    /// `target` (the light it aims at) blocks `ray` before `t_max`. Only the
+    /// objects that the analysis found able to block a shadow ray are tested.
     #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
-        for (i, s) in self.spheres.iter().enumerate() {
+        for (i, s) in listed(self.shadow_spheres, self.spheres) {
             let id = ObjectId::sphere(i);
             if id == target {
                 continue;
@@ -423,7 +487,7 @@ impl SceneView<'_> {
                 return true;
             }
         }
-        for (i, p) in self.planes.iter().enumerate() {
+        for (i, p) in listed(self.shadow_planes, self.planes) {
             if ObjectId::plane(i) != from && p.intersect(ray, t_max).is_some() {
                 return true;
             }
@@ -523,7 +587,7 @@ mod tests {
             .unwrap();
         b.camera(cam()).unwrap();
         let scene: Scene = b.build().unwrap();
-        let v = scene.view();
+        let v = scene.view(-1.0);
         // from the sphere's top, going up: nothing
         let up = Ray::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
         assert!(v.closest_hit(&up, s).is_none());

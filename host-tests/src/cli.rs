@@ -174,6 +174,7 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
             "bounce_rays": s.bounce_rays,
             "shadow_rays": s.shadow_rays,
             "nonfinite": s.nonfinite,
+            "leaks": s.leaks,
             "threads": out.threads,
             "rays_per_second": s.rays() as f64 / out.seconds.max(1e-9),
         });

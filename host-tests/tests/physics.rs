@@ -83,7 +83,7 @@ fn furnace_sphere_reflects_its_albedo() {
 fn radiance_below_a_sphere_light_follows_the_inverse_square_law() {
     let path = micropt_host::reference::scenes_dir().join("sphere-over-plane.scene");
     let scene = load_scene(&path).unwrap();
-    let view = scene.view();
+    let view = scene.view(-1.0);
     let eye = scene.camera().eye;
     let ray = Ray::new(eye, (Vec3::ZERO - eye).normalize());
     for strategy in [Strategy::Mis, Strategy::LightOnly, Strategy::BsdfOnly] {

@@ -1,0 +1,313 @@
+//! Scene analysis at load time: what work a scene can never need.
+//!
+//! Every rule here is exact geometry about which points a path can reach,
+//! with a relative safety margin so that rounding can only make the analysis
+//! more conservative:
+//!
+//! * A path crosses an opaque surface (diffuse, mirror, light) only by
+//!   leaving it on the side it came from, so every path vertex lies on the
+//!   camera's side of every opaque **plane**, and inside every opaque
+//!   **sphere** that contains the camera (outside every other opaque one).
+//! * Hence an opaque plane with every reachable light entirely on the camera's
+//!   side cannot block a shadow ray (the segment from a vertex to a point of
+//!   the light stays in that half-space), and an opaque sphere around the
+//!   camera that contains every reachable light entirely cannot either (a ball
+//!   is convex). Such objects are left out of shadow-ray tests.
+//! * A light entirely behind an opaque plane, outside an opaque sphere around
+//!   the camera, or inside an opaque sphere that does not contain the camera
+//!   can never be reached: it is not sampled at all.
+//! * The camera enclosed by opaque planes (their inward cone of directions is
+//!   {0}) or inside an opaque sphere makes the scene **closed**: no ray can
+//!   escape, so the background is never looked up (a ray that does escape is
+//!   a numerical leak, and is counted).
+//! * Spheres entirely outside the cone that bounds the view frustum can never
+//!   be hit by a camera ray; they are left out of primary-ray tests.
+//! * A scene without mirror or glass objects runs an integrator compiled
+//!   without them; a scene with one light never selects among lights.
+
+use crate::camera::CameraSpec;
+use crate::geometry::{Plane, Sphere, Vec3};
+use crate::material::Material;
+use crate::math;
+use heapless::Vec;
+
+/// Relative safety margin of the analysis' geometric decisions.
+const MARGIN: f32 = 1e-4;
+
+/// What the analysis found (see the module docs).
+#[derive(Clone, Debug)]
+pub struct Analysis<const S: usize, const P: usize> {
+    /// Reachable emitting spheres.
+    pub lights: Vec<u16, S>,
+    /// Spheres that can block a shadow ray.
+    pub shadow_spheres: Vec<u16, S>,
+    /// Planes that can block a shadow ray.
+    pub shadow_planes: Vec<u16, P>,
+    /// Spheres ordered by how far outside the view axis they lie: a camera
+    /// ray within a cone of cosine `c` can hit only those whose key is ≥ `c`.
+    pub view_order: Vec<u16, S>,
+    /// The key of each entry of `view_order` (descending): the cosine of the
+    /// smallest angle between the view axis and a direction to the sphere, or
+    /// 2 when that angle is 0 (the sphere surrounds or straddles the axis).
+    pub view_keys: Vec<f32, S>,
+    /// No ray can escape the region of the camera.
+    pub closed: bool,
+    /// Some object is a mirror or glass.
+    pub specular: bool,
+}
+
+fn is_opaque(materials: &[Material], m: u16) -> bool {
+    !matches!(materials.get(m as usize), Some(Material::Glass(_)) | None)
+}
+
+/// Signed distance of `p` from a plane, and a bound on its rounding error.
+fn plane_distance(pl: &Plane, p: Vec3) -> (f32, f32) {
+    let d = pl.normal.dot(p) - pl.offset;
+    let scale = pl.normal.abs().dot(p.abs()) + math::abs(pl.offset);
+    (d, MARGIN * scale)
+}
+
+/// `inner` lies strictly inside ball `outer`.
+fn sphere_inside(inner: &Sphere, outer: &Sphere) -> bool {
+    let d = (inner.center - outer.center).length();
+    let tol = MARGIN * (d + inner.radius + outer.radius + outer.center.abs().max_component());
+    d + inner.radius < outer.radius - tol
+}
+
+/// `inner` lies strictly outside ball `outer`.
+fn sphere_outside(inner: &Sphere, outer: &Sphere) -> bool {
+    let d = (inner.center - outer.center).length();
+    let tol = MARGIN * (d + inner.radius + outer.radius + outer.center.abs().max_component());
+    d - inner.radius > outer.radius + tol
+}
+
+/// Point `p` strictly inside ball `s`.
+fn point_inside(p: Vec3, s: &Sphere) -> bool {
+    let d = (p - s.center).length();
+    d < s.radius * (1.0 - MARGIN) - MARGIN * s.center.abs().max_component()
+}
+
+/// Point `p` strictly outside ball `s`.
+fn point_outside(p: Vec3, s: &Sphere) -> bool {
+    let d = (p - s.center).length();
+    d > s.radius * (1.0 + MARGIN) + MARGIN * s.center.abs().max_component()
+}
+
+/// Analyses a scene's arrays (see the module docs).
+pub fn analyse<const S: usize, const P: usize>(
+    spheres: &[Sphere],
+    planes: &[Plane],
+    materials: &[Material],
+    camera: &CameraSpec,
+) -> Analysis<S, P> {
+    let eye = camera.eye;
+    // which side of each opaque plane the camera is on (0: on the plane)
+    let side = |pl: &Plane| {
+        let (d, tol) = plane_distance(pl, eye);
+        if d > tol {
+            1.0
+        } else if d < -tol {
+            -1.0
+        } else {
+            0.0
+        }
+    };
+    let light_on_camera_side = |pl: &Plane, l: &Sphere| {
+        let (d, tol) = plane_distance(pl, l.center);
+        let s = side(pl);
+        s != 0.0 && d * s > l.radius * (1.0 + MARGIN) + tol
+    };
+    let light_behind = |pl: &Plane, l: &Sphere| {
+        let (d, tol) = plane_distance(pl, l.center);
+        let s = side(pl);
+        s != 0.0 && -d * s > l.radius * (1.0 + MARGIN) + tol
+    };
+    let opaque_planes = || planes.iter().filter(|p| is_opaque(materials, p.material));
+    let opaque_spheres = || spheres.iter().filter(|s| is_opaque(materials, s.material));
+
+    // reachable emitters
+    let mut lights: Vec<u16, S> = Vec::new();
+    for (i, l) in spheres.iter().enumerate() {
+        let emits = matches!(materials.get(l.material as usize), Some(Material::Light(le)) if le.max_component() > 0.0);
+        if !emits {
+            continue;
+        }
+        let hidden_by_plane = opaque_planes().any(|p| light_behind(p, l));
+        let hidden_by_sphere = opaque_spheres().any(|q| {
+            !core::ptr::eq(q, l)
+                && ((point_inside(eye, q) && sphere_outside(l, q))
+                    || (point_outside(eye, q) && sphere_inside(l, q)))
+        });
+        if !hidden_by_plane && !hidden_by_sphere {
+            let _ = lights.push(i as u16);
+        }
+    }
+    let reachable = || lights.iter().filter_map(|&i| spheres.get(i as usize));
+
+    // shadow-ray occluders
+    let mut shadow_planes: Vec<u16, P> = Vec::new();
+    for (i, p) in planes.iter().enumerate() {
+        let skip =
+            is_opaque(materials, p.material) && reachable().all(|l| light_on_camera_side(p, l));
+        if !skip {
+            let _ = shadow_planes.push(i as u16);
+        }
+    }
+    let mut shadow_spheres: Vec<u16, S> = Vec::new();
+    for (i, q) in spheres.iter().enumerate() {
+        let skip = is_opaque(materials, q.material)
+            && point_inside(eye, q)
+            && reachable().all(|l| !core::ptr::eq(l, q) && sphere_inside(l, q));
+        if !skip {
+            let _ = shadow_spheres.push(i as u16);
+        }
+    }
+
+    // closedness
+    let in_sphere = opaque_spheres().any(|q| point_inside(eye, q));
+    let closed = in_sphere || planes_enclose(planes, materials, &side);
+
+    // view culling keys
+    let axis = (camera.target - eye).normalize();
+    let mut order: Vec<(f32, u16), S> = Vec::new();
+    for (i, s) in spheres.iter().enumerate() {
+        let to_c = s.center - eye;
+        let d = to_c.length();
+        let key = if !(d > s.radius * (1.0 + MARGIN)) {
+            2.0
+        } else {
+            let cos_t = to_c.dot(axis) / d;
+            let sin_t = to_c.cross(axis).length() / d;
+            let sin_a = math::min(s.radius / d * (1.0 + MARGIN), 1.0);
+            let cos_a = math::safe_sqrt(1.0 - sin_a * sin_a);
+            // angle to the centre minus the angular radius, as a cosine
+            if sin_t * cos_a <= sin_a * cos_t && cos_t > 0.0 || sin_a >= 1.0 {
+                2.0 // the axis passes through the sphere's cone
+            } else {
+                cos_t * cos_a + sin_t * sin_a
+            }
+        };
+        let _ = order.push((key, i as u16));
+    }
+    order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let view_order = order.iter().map(|&(_, i)| i).collect();
+    let view_keys = order.iter().map(|&(k, _)| k).collect();
+
+    let specular = spheres
+        .iter()
+        .map(|s| s.material)
+        .chain(planes.iter().map(|p| p.material))
+        .any(|m| {
+            matches!(
+                materials.get(m as usize),
+                Some(Material::Mirror(_) | Material::Glass(_))
+            )
+        });
+
+    Analysis {
+        lights,
+        shadow_spheres,
+        shadow_planes,
+        view_order,
+        view_keys,
+        closed,
+        specular,
+    }
+}
+
+/// Whether the opaque planes enclose `eye`: the cone of directions `v` with
+/// `n_i · v ≥ 0` for every plane's normal turned toward the eye is {0}. If
+/// it is not, it contains `±(n_i × n_j)` for some pair (its extreme rays or
+/// lineality space), or all normals are parallel.
+fn planes_enclose(planes: &[Plane], materials: &[Material], side: &dyn Fn(&Plane) -> f32) -> bool {
+    let mut normals: Vec<Vec3, 32> = Vec::new();
+    for p in planes.iter().filter(|p| is_opaque(materials, p.material)) {
+        let s = side(p);
+        if s != 0.0 && normals.push(p.normal * s).is_err() {
+            return false;
+        }
+    }
+    let feasible = |v: Vec3| normals.iter().all(|n| n.dot(v) >= -1e-6);
+    let mut any_pair = false;
+    for (i, a) in normals.iter().enumerate() {
+        for b in normals.iter().skip(i + 1) {
+            let c = a.cross(*b);
+            if c.length_squared() > 1e-12 {
+                any_pair = true;
+                let c = c.normalize();
+                if feasible(c) || feasible(-c) {
+                    return false;
+                }
+            }
+        }
+    }
+    any_pair
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::parse::parse;
+
+    #[test]
+    fn cornell_is_closed_and_its_walls_never_shadow() {
+        let s = parse(include_str!("../scenes/cornell.scene")).unwrap();
+        let a = s.analysis();
+        assert!(a.closed);
+        assert!(a.specular);
+        assert!(a.shadow_planes.is_empty(), "{:?}", a.shadow_planes);
+        assert_eq!(a.shadow_spheres.len(), 3);
+        assert_eq!(a.lights.as_slice(), &[0]);
+    }
+
+    #[test]
+    fn open_scenes_are_not_closed() {
+        for text in [
+            include_str!("../scenes/furnace.scene"),
+            include_str!("../scenes/spheres.scene"),
+        ] {
+            let s = parse(text).unwrap();
+            assert!(!s.analysis().closed);
+        }
+        let s = parse(include_str!("../scenes/sphere-over-plane.scene")).unwrap();
+        assert!(!s.analysis().closed && !s.analysis().specular);
+        // the light is above the floor: the floor never blocks it
+        assert!(s.analysis().shadow_planes.is_empty());
+    }
+
+    #[test]
+    fn smallpt_is_closed_but_its_light_pokes_out() {
+        let s = parse(include_str!("../scenes/smallpt.scene")).unwrap();
+        let a = s.analysis();
+        assert!(a.closed);
+        // the light (radius 600) reaches outside every wall sphere but the
+        // floor's (whose ball, centred at y = 1e5, holds room and light):
+        // only the floor can never block a light sample
+        assert_eq!(a.shadow_spheres.as_slice(), &[0, 1, 2, 3, 5, 6, 7, 8]);
+        assert_eq!(a.lights.as_slice(), &[8]);
+    }
+
+    #[test]
+    fn unreachable_lights_are_dropped() {
+        let s = parse(
+            "camera 0 1 5 0 1 0 0 1 0 40\nmaterial g diffuse 0.5 0.5 0.5\nmaterial l light 1 1 1\n\
+             plane 0 0 0 0 1 0 g\nsphere 0 -3 0 1 l\nsphere 0 3 0 1 l\n",
+        )
+        .unwrap();
+        assert_eq!(s.analysis().lights.as_slice(), &[1]);
+    }
+
+    #[test]
+    fn view_keys_sort_spheres_by_visibility() {
+        let s = parse(
+            "camera 0 0 0 0 0 -1 0 1 0 40\nmaterial g diffuse 0.5 0.5 0.5\n\
+             sphere 0 0 5 1 g\nsphere 0 0 -5 1 g\nsphere 5 0 -5 1 g\n",
+        )
+        .unwrap();
+        let a = s.analysis();
+        // on the axis first, then off-axis, then behind
+        assert_eq!(a.view_order.as_slice(), &[1, 2, 0]);
+        assert_eq!(a.view_keys[0], 2.0);
+        assert!(a.view_keys[1] < 1.0 && a.view_keys[1] > 0.5);
+        assert!(a.view_keys[2] < 0.0);
+    }
+}
