@@ -55,21 +55,31 @@ impl Tile {
     }
 }
 
+/// Number of tiles of a `width × height` image.
+pub const fn tile_count(width: u32, height: u32) -> usize {
+    (width.div_ceil(TILE) * height.div_ceil(TILE)) as usize
+}
+
+/// Tile number `i` (row-major) of a `width × height` image, or `None`.
+pub fn tile_at(width: u32, height: u32, i: usize) -> Option<Tile> {
+    let tx = width.div_ceil(TILE) as usize;
+    if tx == 0 || i >= tile_count(width, height) {
+        return None;
+    }
+    let x = (i % tx) as u32 * TILE;
+    let y = (i / tx) as u32 * TILE;
+    Some(Tile {
+        x,
+        y,
+        w: (width - x).min(TILE),
+        h: (height - y).min(TILE),
+    })
+}
+
 /// The tiles of a `width × height` image in row-major order, each at most
 /// [`TILE`] × [`TILE`].
 pub fn tiles(width: u32, height: u32) -> impl Iterator<Item = Tile> + Clone {
-    let tx = width.div_ceil(TILE);
-    let ty = height.div_ceil(TILE);
-    (0..tx * ty).map(move |i| {
-        let x = (i % tx) * TILE;
-        let y = (i / tx) * TILE;
-        Tile {
-            x,
-            y,
-            w: (width - x).min(TILE),
-            h: (height - y).min(TILE),
-        }
-    })
+    (0..tile_count(width, height)).filter_map(move |i| tile_at(width, height, i))
 }
 
 /// The sRGB transfer curve (linear [0,1] → encoded [0,1]).

@@ -24,7 +24,7 @@
 //! Modules, one per concept: [`analysis`] (work a scene never needs), [`math`] (every float function, explicitly),
 //! [`geometry`] (vectors, rays, spheres, planes), [`camera`], [`material`],
 //! [`light`], [`sampler`], [`scene`], [`parse`], [`integrator`], [`film`],
-//! [`render`].
+//! [`render`], [`budget`] (fixed budgets, progressive and adaptive).
 
 #![no_std]
 #![cfg_attr(
@@ -40,6 +40,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod analysis;
+pub mod budget;
 pub mod camera;
 pub mod film;
 pub mod geometry;
@@ -52,6 +53,7 @@ pub mod render;
 pub mod sampler;
 pub mod scene;
 
+pub use budget::{AdaptiveOptions, Budget, Clock};
 pub use camera::{Camera, CameraError, CameraSpec};
 pub use geometry::{Color, Hit, ObjectId, Plane, Ray, Sphere, Vec3};
 pub use integrator::{Options, Stats, Strategy};

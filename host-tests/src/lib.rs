@@ -11,4 +11,6 @@ pub mod reference;
 pub mod render;
 
 pub use image::Image;
-pub use render::{RenderJob, RenderOutput, load_scene, render};
+pub use render::{
+    BudgetJob, BudgetOutput, RenderJob, RenderOutput, load_scene, render, render_budget,
+};
