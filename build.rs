@@ -1,4 +1,152 @@
-//! Puts `memory.x` on the linker path for firmware builds only.
+//! Build script of the `micropt` package.
+//!
+//! It does nothing for the core library or host builds. For firmware builds
+//! only — the `firmware` or `board-st7789` feature on a bare-metal target
+//! (`target_os = "none"`) — it
+//!
+//! * copies `memory.x` (the STM32F405 memory map) into `OUT_DIR` and puts that
+//!   directory on the linker path (in a workspace the linker runs from the
+//!   root, so a relative path would not do), and passes `-Tlink.x` (from
+//!   cortex-m-rt) to the examples' links only, so that the core and the
+//!   `micropt-host` no_std stub still build for the board targets;
+//! * for the `firmware` feature, writes `firmware_config.rs` and
+//!   `firmware.scene` into `OUT_DIR`: the compile-time choice of scene, image
+//!   size, samples per pixel, seed and output file, read from environment
+//!   variables (see `docs/firmware.md`):
+//!
+//!   | variable            | default                   |
+//!   | ------------------- | ------------------------- |
+//!   | `MICROPT_FW_SCENE`  | `scenes/cornell.scene`    |
+//!   | `MICROPT_FW_SIZE`   | the scene's `resolution`, else `64x64` |
+//!   | `MICROPT_FW_SPP`    | `16`                      |
+//!   | `MICROPT_FW_SEED`   | `0`                       |
+//!   | `MICROPT_FW_OUT`    | `firmware.rgb565` (host path, relative to QEMU's working directory) |
+//!
+//!   The scene's fixed capacities (spheres, planes, materials) are the counts
+//!   of those statements in the file, so the firmware's static RAM is what
+//!   that scene needs.
+
+use std::env;
+use std::fs;
+use std::path::{Path, PathBuf};
+
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
+    let firmware = env::var_os("CARGO_FEATURE_FIRMWARE").is_some();
+    let board = env::var_os("CARGO_FEATURE_BOARD_ST7789").is_some();
+    let bare_metal = env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none");
+    if !(firmware || board) || !bare_metal {
+        return;
+    }
+    let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let root = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it"));
+
+    println!("cargo:rerun-if-changed=memory.x");
+    fs::copy(root.join("memory.x"), out.join("memory.x")).expect("copy memory.x to OUT_DIR");
+    println!("cargo:rustc-link-search={}", out.display());
+    println!("cargo:rustc-link-arg-examples=-Tlink.x");
+
+    if firmware && let Err(e) = firmware_config(&root, &out) {
+        panic!("firmware configuration: {e}");
+    }
+}
+
+fn var(name: &str) -> Option<String> {
+    println!("cargo:rerun-if-env-changed={name}");
+    env::var(name).ok().filter(|v| !v.trim().is_empty())
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("MICROPT_FW_SIZE={s:?} is not WxH (e.g. 64x64)"))?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("bad width {w:?}"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("bad height {h:?}"))?;
+    if w == 0 || h == 0 || w > 1024 || h > 1024 {
+        return Err(format!("image size {w}x{h} must be within 1..=1024"));
+    }
+    Ok((w, h))
+}
+
+fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
+    let scene_rel = var("MICROPT_FW_SCENE").unwrap_or_else(|| "scenes/cornell.scene".into());
+    let scene_path = root.join(&scene_rel);
+    println!("cargo:rerun-if-changed={}", scene_path.display());
+    let text = fs::read_to_string(&scene_path)
+        .map_err(|e| format!("cannot read scene {}: {e}", scene_path.display()))?;
+
+    // capacities: the number of statements of each kind (the parser on the
+    // board reports a capacity error, not a panic, if this count were short)
+    let (mut spheres, mut planes, mut materials) = (0usize, 0usize, 0usize);
+    let mut resolution = None;
+    for line in text.lines() {
+        let code = line.split('#').next().unwrap_or("");
+        let toks: Vec<&str> = code.split_whitespace().collect();
+        match toks.first().copied() {
+            Some("sphere") => spheres += 1,
+            Some("plane") => planes += 1,
+            Some("material") => materials += 1,
+            Some("resolution") if toks.len() == 3 => {
+                if let (Ok(w), Ok(h)) = (toks[1].parse::<u32>(), toks[2].parse::<u32>()) {
+                    resolution = Some((w, h));
+                }
+            }
+            _ => {}
+        }
+    }
+    let (width, height) = match var("MICROPT_FW_SIZE") {
+        Some(s) => parse_size(&s)?,
+        None => resolution.unwrap_or((64, 64)),
+    };
+    let spp: u32 = match var("MICROPT_FW_SPP") {
+        Some(s) => s
+            .trim()
+            .parse()
+            .ok()
+            .filter(|&n| n > 0)
+            .ok_or_else(|| format!("MICROPT_FW_SPP={s:?} is not a positive integer"))?,
+        None => 16,
+    };
+    let seed: u64 = match var("MICROPT_FW_SEED") {
+        Some(s) => s
+            .trim()
+            .parse()
+            .map_err(|_| format!("MICROPT_FW_SEED={s:?} is not an unsigned integer"))?,
+        None => 0,
+    };
+    let output = var("MICROPT_FW_OUT").unwrap_or_else(|| "firmware.rgb565".into());
+    if output.contains('\0') {
+        return Err("MICROPT_FW_OUT contains a NUL byte".into());
+    }
+    let scene_name = Path::new(&scene_rel)
+        .file_name()
+        .map_or_else(|| scene_rel.clone(), |n| n.to_string_lossy().into_owned());
+
+    fs::write(out.join("firmware.scene"), &text).map_err(|e| e.to_string())?;
+    let config = format!(
+        "// generated by build.rs from the MICROPT_FW_* environment variables\n\
+         /// Scene file name (for the summary line).\n\
+         pub const SCENE_NAME: &str = {scene_name:?};\n\
+         /// Image width in pixels.\n\
+         pub const WIDTH: usize = {width};\n\
+         /// Image height in pixels.\n\
+         pub const HEIGHT: usize = {height};\n\
+         /// Samples per pixel.\n\
+         pub const SPP: u32 = {spp};\n\
+         /// Render seed.\n\
+         pub const SEED: u64 = {seed};\n\
+         /// Host file the Rgb565 dump is written to (NUL-terminated).\n\
+         pub const OUTPUT: &str = \"{}\\0\";\n\
+         /// Sphere capacity of the scene.\n\
+         pub const MAX_SPHERES: usize = {};\n\
+         /// Plane capacity of the scene.\n\
+         pub const MAX_PLANES: usize = {};\n\
+         /// Material capacity of the scene.\n\
+         pub const MAX_MATERIALS: usize = {};\n",
+        output.escape_default(),
+        spheres.max(1),
+        planes.max(1),
+        materials.max(1),
+    );
+    fs::write(out.join("firmware_config.rs"), config).map_err(|e| e.to_string())
 }

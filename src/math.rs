@@ -61,12 +61,12 @@ fn sqrt_impl(x: f32) -> f32 {
     // enabled by the runtime before `main`.
     unsafe {
         core::arch::asm!(
-            "vmov {s}, {i}",
-            "vsqrt.f32 {s}, {s}",
-            "vmov {o}, {s}",
+            "vmov s0, {i}",
+            "vsqrt.f32 s0, s0",
+            "vmov {o}, s0",
             i = in(reg) bits_in,
             o = lateout(reg) bits_out,
-            s = out("s0") _,
+            out("s0") _,
             options(pure, nomem, nostack, preserves_flags),
         );
     }

@@ -10,6 +10,9 @@ use crate::material::Material;
 use crate::scene::{MaterialId, Scene, SceneBuilder, SceneError};
 use heapless::Vec;
 
+mod decimal;
+pub use decimal::parse_f32;
+
 /// Longest material name, in bytes.
 pub const MAX_NAME_LEN: usize = 32;
 /// Most whitespace-separated tokens a statement may have (camera has 11).
@@ -102,24 +105,12 @@ fn is_name(s: &str) -> bool {
 
 fn number(tok: &str) -> Result<f32, ParseErrorKind> {
     // the format's numbers: optional sign, digits with an optional point,
-    // optional exponent. core's parser also takes "inf"/"nan": reject those
-    // as not finite, anything else non-numeric as not a number.
-    let b = tok.as_bytes();
-    let body = match b.first() {
-        Some(b'+') | Some(b'-') => b.get(1..).unwrap_or(&[]),
-        _ => b,
-    };
-    if body.first().is_some_and(|c| c.is_ascii_alphabetic()) {
-        return match tok.parse::<f32>() {
-            Ok(_) => Err(ParseErrorKind::NotFinite),
-            Err(_) => Err(ParseErrorKind::NotANumber),
-        };
-    }
-    let v = tok.parse::<f32>().map_err(|_| ParseErrorKind::NotANumber)?;
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(ParseErrorKind::NotFinite)
+    // optional exponent. The grammar also takes "inf"/"nan": reject those as
+    // not finite, anything else non-numeric as not a number.
+    match parse_f32(tok) {
+        Some(v) if v.is_finite() => Ok(v),
+        Some(_) => Err(ParseErrorKind::NotFinite),
+        None => Err(ParseErrorKind::NotANumber),
     }
 }
 

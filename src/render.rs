@@ -121,9 +121,12 @@ impl<'a> Renderer<'a> {
         sums: &mut [Color],
         stats: &mut Stats,
     ) {
+        // a tile of width 0 has no pixels; max(1) only spares the division
+        // a zero check (and the firmware a panic path)
+        let w = tile.w.max(1);
         for (i, acc) in sums.iter_mut().take(tile.len()).enumerate() {
             let i = i as u32;
-            let (x, y) = (tile.x + i % tile.w, tile.y + i / tile.w);
+            let (x, y) = (tile.x + i % w, tile.y + i / w);
             for k in first..first.saturating_add(count) {
                 *acc += self.sample(x, y, k, stats);
             }

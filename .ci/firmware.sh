@@ -1,0 +1,180 @@
+#!/usr/bin/env bash
+# Firmware CI (called by .ci/run; runs alone too): the micropt core on a
+# Cortex-M4F (STM32F405) in QEMU.
+#
+#  - installs qemu-system-arm, binutils-arm-none-eabi and gcc (apt) if missing,
+#    and builds the instruction-count plugin tools/qemu-icount;
+#  - clippy on the firmware examples;
+#  - builds the release firmware, which links with panic-never: the link
+#    fails if any panic path is left (core included);
+#  - runs it in QEMU (netduinoplus2) for every scene in scenes/ and checks that
+#    its Rgb565 dump is byte-identical to the host CLI's render of the same
+#    scene, size, spp and seed;
+#  - for the default build (cornell.scene 64x64, 16 spp) checks the budgets:
+#    flash <= 64 KiB, renderer state (static RAM but the framebuffer)
+#    <= 16 KiB, stack high-water <= 4 KiB; no soft-double symbols; the FPU
+#    vsqrt.f32 in the render code; and writes the measured figures, printing
+#    a diff against the committed firmware/expected/ files
+#    (`.ci/firmware.sh --bless` rewrites them);
+#  - builds the STM32F405 + ST7789 board example.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+BLESS=0
+if [ "${1:-}" = "--bless" ]; then BLESS=1; fi
+
+TARGET=thumbv7em-none-eabihf
+OUT=target/firmware
+ELF=target/$TARGET/release/examples/firmware
+mkdir -p "$OUT"
+
+fstep() { printf '\n---- firmware: %s (%ss)\n' "$*" "$SECONDS"; }
+fail() {
+    echo "error: $*" >&2
+    exit 1
+}
+
+SUDO=""
+if [ "$(id -u)" != 0 ] && command -v sudo >/dev/null; then SUDO=sudo; fi
+
+fstep "install qemu-system-arm, binutils-arm-none-eabi, gcc"
+if ! command -v qemu-system-arm >/dev/null || ! command -v arm-none-eabi-size >/dev/null ||
+    ! command -v gcc >/dev/null; then
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
+        qemu-system-arm binutils-arm-none-eabi gcc libc6-dev >/dev/null
+fi
+rustup target add "$TARGET" >/dev/null
+qemu-system-arm --version | head -n 1
+
+fstep "build the QEMU instruction-count plugin"
+gcc -O2 -Wall -Wextra -Werror -shared -fPIC -o "$OUT/libicount.so" tools/qemu-icount/icount.c
+
+fstep "clippy: firmware examples"
+cargo clippy --release --examples --features firmware --target "$TARGET" -- -D warnings
+cargo clippy --release --examples --features board-st7789 --target "$TARGET" -- -D warnings
+
+fstep "host CLI (test profile: shares its build with cargo test; same bits as release)"
+cargo build --profile test -p micropt-host --bin micropt
+HOST=target/debug/micropt
+
+# run_scene SCENE: build the firmware for SCENE (its own resolution, 16 spp,
+# seed 0), run it in QEMU with the plugin, compare with the host render.
+run_scene() {
+    local scene=$1 name size
+    name=$(basename "$scene" .scene)
+    size=$(awk '$1 == "resolution" { print $2 "x" $3; exit }' "$scene")
+    size=${size:-64x64}
+    MICROPT_FW_SCENE=$scene MICROPT_FW_SIZE=$size MICROPT_FW_SPP=16 MICROPT_FW_SEED=0 \
+        MICROPT_FW_OUT="$OUT/$name.board.rgb565" \
+        cargo build --release --example firmware --features firmware --target "$TARGET"
+    rm -f "$OUT/$name.board.rgb565"
+    local status=0
+    timeout 300 qemu-system-arm -cpu cortex-m4 -machine netduinoplus2 -nographic \
+        -semihosting-config enable=on,target=native \
+        -plugin "$OUT/libicount.so" -d plugin -D "$OUT/$name.icount" \
+        -kernel "$ELF" >"$OUT/$name.run" || status=$?
+    cat "$OUT/$name.run" "$OUT/$name.icount"
+    [ "$status" = 0 ] || fail "$name: the firmware exited with status $status"
+    "$HOST" render "$scene" --size "$size" --spp 16 --seed 0 --exposure 1 \
+        -o "$OUT/$name.host.rgb565"
+    if ! cmp "$OUT/$name.board.rgb565" "$OUT/$name.host.rgb565"; then
+        fail "$name: the board's image differs from the host's (same scene, size, spp, seed)"
+    fi
+    echo "$name $size: board and host images are bit-identical"
+}
+
+fstep "firmware on every scene, bit-identical with the host"
+for scene in scenes/*.scene; do
+    [ "$scene" = scenes/cornell.scene ] && continue
+    run_scene "$scene"
+done
+# the default build last: its ELF is the one measured below
+run_scene scenes/cornell.scene
+
+fstep "budgets and guarantees of the default firmware (cornell.scene)"
+section() { arm-none-eabi-size -A "$ELF" | awk -v s="$1" '$1 == s { print $2; f = 1 } END { if (!f) print 0 }'; }
+vt=$(section .vector_table)
+text=$(section .text)
+rodata=$(section .rodata)
+data=$(section .data)
+bss=$(section .bss)
+uninit=$(section .uninit)
+flash=$((vt + text + rodata + data))
+fb_hex=$(arm-none-eabi-nm -C -S "$ELF" | awk '$4 ~ /::FRAMEBUFFER$/ { print $2 }')
+[ -n "$fb_hex" ] || fail "no FRAMEBUFFER symbol in $ELF"
+fb=$((16#$fb_hex))
+static_ram=$((data + bss + uninit))
+state=$((static_ram - fb))
+stack=$(sed -n 's/.*stack high-water \([0-9]*\) bytes.*/\1/p' "$OUT/cornell.run")
+paths=$(sed -n 's/.*: \([0-9]*\) paths,.*/\1/p' "$OUT/cornell.run")
+insns=$(sed -n 's/^insns: //p' "$OUT/cornell.icount")
+read -r -a marks <<<"$(sed -n 's/^marks: //p' "$OUT/cornell.icount")"
+[ -n "$stack" ] && [ -n "$paths" ] && [ -n "$insns" ] && [ "${#marks[@]}" = 5 ] ||
+    fail "could not read the firmware's figures"
+render=$((marks[3] - marks[2]))
+{
+    echo "# examples/firmware, release, cornell.scene 64x64, 16 spp, seed 0 (QEMU netduinoplus2)"
+    echo "# written by .ci/firmware.sh; bytes and executed instructions"
+    echo "flash: $flash  (.vector_table $vt + .text $text + .rodata $rodata + .data $data; budget 65536)"
+    echo "static_ram: $static_ram  (.data $data + .bss $bss + .uninit $uninit)"
+    echo "framebuffer: $fb"
+    echo "renderer_state: $state  (static RAM but the framebuffer; budget 16384)"
+    echo "stack_high_water: $stack  (budget 4096)"
+    echo "insns_total: $insns"
+    echo "insns_reset_to_main: ${marks[0]}  (vector table, stack paint, RAM init)"
+    echo "insns_sqrt_selftest: $((marks[1] - marks[0]))  (4111 vsqrt.f32 vs libm::sqrtf)"
+    echo "insns_parse_and_setup: $((marks[2] - marks[1]))  (parse the scene, camera)"
+    echo "insns_render: $render  (all tiles, incl. tone mapping into the framebuffer)"
+    echo "insns_dump: $((marks[4] - marks[3]))  (semihosting write of the image)"
+    echo "insns_after: $((insns - marks[4]))  (stack scan, summary line, exit)"
+    echo "paths: $paths"
+    echo "insns_per_path: $((render / paths))"
+} >"$OUT/cornell.size"
+cat "$OUT/cornell.size"
+
+ok=1
+[ "$flash" -le 65536 ] || { echo "error: flash $flash > 65536 bytes" >&2; ok=0; }
+[ "$state" -le 16384 ] || { echo "error: renderer state $state > 16384 bytes" >&2; ok=0; }
+[ "$stack" -le 4096 ] || { echo "error: stack high-water $stack > 4096 bytes" >&2; ok=0; }
+
+# no double precision: the M4F FPU is single precision, so any f64 arithmetic
+# would link compiler-builtins' soft-double routines
+if arm-none-eabi-nm "$ELF" | grep -E ' (__aeabi_(d[a-z0-9]+|(f|i|ui|l|ul)2d)|__(add|sub|mul|div|neg)df3|__(eq|ne|lt|le|gt|ge|un|cmp)df2|__(extendsfdf2|truncdfsf2)|__fix(uns)?df[sdt]i|__float(un)?[sdt]idf|__powidf2)$'; then
+    echo "error: soft-double symbols in the firmware" >&2
+    ok=0
+fi
+# the render path uses the FPU square root, not libm's software one
+arm-none-eabi-objdump -d --no-show-raw-insn "$ELF" >"$OUT/firmware.dis"
+render_fn=$(awk '/^[0-9a-f]+ <.*accumulate_tile.*>:$/ { f = 1; next } /^[0-9a-f]+ <.*>:$/ { f = 0 } f' "$OUT/firmware.dis")
+if [ -z "$render_fn" ]; then
+    echo "note: accumulate_tile was inlined; checking the whole firmware for vsqrt.f32"
+    render_fn=$(grep -v 'sqrtf' "$OUT/firmware.dis")
+fi
+grep -q 'vsqrt.f32' <<<"$render_fn" || { echo "error: no vsqrt.f32 in the render code" >&2; ok=0; }
+if grep -E 'bl.*<.*sqrtf.*>' <<<"$render_fn"; then
+    echo "error: the render code calls a software sqrtf" >&2
+    ok=0
+fi
+[ "$ok" = 1 ] || fail "firmware budgets or guarantees not met"
+echo "budgets met; no soft-double symbols; vsqrt.f32 in the render code; links with panic-never"
+
+if [ "$BLESS" = 1 ]; then
+    mkdir -p firmware/expected
+    cp "$OUT/cornell.size" firmware/expected/cornell.size
+    cp "$OUT/cornell.run" firmware/expected/cornell.run
+    echo "wrote firmware/expected/cornell.{size,run}"
+else
+    for f in cornell.size cornell.run; do
+        if ! diff -u "firmware/expected/$f" "$OUT/$f"; then
+            echo "note: measured figures differ from firmware/expected/$f" \
+                "(informational; budgets above are the check; .ci/firmware.sh --bless updates)"
+        fi
+    done
+fi
+
+fstep "board example: STM32F405 + ST7789 (mipidsi)"
+cargo build --release --example st7789 --features board-st7789 --target "$TARGET"
+arm-none-eabi-size "target/$TARGET/release/examples/st7789"
+
+fstep "firmware done"

@@ -1,0 +1,131 @@
+//! micropt on a real display board: an STM32F405 driving a 240×240 ST7789
+//! SPI panel through `mipidsi`, rendering the Cornell box tile by tile
+//! straight to the panel.
+//!
+//! There is no framebuffer: 240×240 Rgb565 is 113 KiB, which does not fit
+//! beside the renderer in the F405's 128 KiB of RAM. Each 16×16 tile is
+//! rendered into a 3 KiB buffer of linear radiance, tone-mapped, dithered and
+//! sent to the panel with one `fill_contiguous` (a window write). A quick
+//! 1-sample preview pass comes first, then the final pass overwrites it
+//! tile by tile with [`SPP`] samples per pixel (the image the host CLI gives
+//! for `--size 240x240 --spp 16 --seed 0`).
+//!
+//! Wiring (SPI1; any STM32F405 board, e.g. a "black F405" or Feather):
+//!
+//! | panel | MCU                  |
+//! | ----- | -------------------- |
+//! | GND   | GND                  |
+//! | VCC   | 3V3                  |
+//! | SCL   | PA5 (SPI1 SCK)       |
+//! | SDA   | PA7 (SPI1 MOSI)      |
+//! | RES   | PB1                  |
+//! | DC    | PB0                  |
+//! | CS    | PA4 (absent on some modules: SPI mode 3 works without it) |
+//! | BLK   | PA1 (backlight on)   |
+//!
+//! Build and flash (see docs/firmware.md):
+//!
+//! ```text
+//! cargo build --release --example st7789 --features board-st7789 --target thumbv7em-none-eabihf
+//! probe-rs run --chip STM32F405RGTx target/thumbv7em-none-eabihf/release/examples/st7789
+//! ```
+#![no_std]
+#![no_main]
+
+use panic_halt as _;
+
+use cortex_m_rt::entry;
+use embedded_hal_bus::spi::ExclusiveDevice;
+use micropt::film::{TILE, draw_tile, tiles};
+use micropt::{Color, Renderer, Scene, Stats};
+use mipidsi::Builder;
+use mipidsi::interface::SpiInterface;
+use mipidsi::models::ST7789;
+use mipidsi::options::ColorInversion;
+use stm32f4xx_hal::pac;
+use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::rcc::Config;
+use stm32f4xx_hal::spi::{Mode, Phase, Polarity};
+
+/// Panel size.
+const WIDTH: u32 = 240;
+/// Panel size.
+const HEIGHT: u32 = 240;
+/// Samples per pixel of the final pass.
+const SPP: u32 = 16;
+/// Render seed.
+const SEED: u64 = 0;
+/// The scene, parsed on the board.
+const SCENE_TEXT: &str = include_str!("../scenes/cornell.scene");
+/// Fixed capacities: enough for cornell.scene (3 spheres, 6 planes, 6
+/// materials); a bigger scene gives a capacity error, not a panic.
+type BoardScene = Scene<4, 8, 8>;
+
+#[entry]
+fn main() -> ! {
+    // static memory, handed out once as `&'static mut` by `#[entry]`
+    static mut SPI_BUFFER: [u8; 512] = [0; 512];
+    static mut TILE_PIXELS: [Color; (TILE * TILE) as usize] = [Color::ZERO; (TILE * TILE) as usize];
+    static mut SCENE: Option<BoardScene> = None;
+
+    let (Some(dp), Some(cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
+        halt()
+    };
+    // 168 MHz from the internal 16 MHz oscillator: no crystal assumed
+    let mut rcc = dp.RCC.freeze(Config::hsi().sysclk(168.MHz()));
+    let mut delay = cp.SYST.delay(&rcc.clocks);
+    let gpioa = dp.GPIOA.split(&mut rcc);
+    let gpiob = dp.GPIOB.split(&mut rcc);
+
+    let mut backlight = gpioa.pa1.into_push_pull_output();
+    backlight.set_high();
+    let spi = dp.SPI1.spi(
+        (Some(gpioa.pa5), pac::SPI1::NoMiso, Some(gpioa.pa7)),
+        Mode {
+            polarity: Polarity::IdleHigh,
+            phase: Phase::CaptureOnSecondTransition,
+        },
+        21.MHz(),
+        &mut rcc,
+    );
+    let cs = gpioa.pa4.into_push_pull_output();
+    let dc = gpiob.pb0.into_push_pull_output();
+    let rst = gpiob.pb1.into_push_pull_output();
+    // the HAL's pins cannot fail (Infallible errors)
+    let Ok(device) = ExclusiveDevice::new_no_delay(spi, cs);
+    let di = SpiInterface::new(device, dc, SPI_BUFFER);
+    let Ok(mut display) = Builder::new(ST7789, di)
+        .display_size(WIDTH as u16, HEIGHT as u16)
+        .invert_colors(ColorInversion::Inverted)
+        .reset_pin(rst)
+        .init(&mut delay)
+    else {
+        halt()
+    };
+
+    let Ok(scene) = micropt::parse::parse_with_capacity(SCENE_TEXT) else {
+        halt()
+    };
+    let scene: &BoardScene = SCENE.insert(scene);
+    let Ok(renderer) = Renderer::new(scene, WIDTH, HEIGHT) else {
+        halt()
+    };
+    let renderer = renderer.seed(SEED);
+    let mut stats = Stats::default();
+    for spp in [1, SPP] {
+        for tile in tiles(WIDTH, HEIGHT) {
+            renderer.render_tile(&tile, spp, TILE_PIXELS, &mut stats);
+            if draw_tile(&mut display, &tile, TILE_PIXELS, 1.0).is_err() {
+                halt()
+            }
+        }
+    }
+    halt()
+}
+
+/// Stops here (done, or no way to report an error without a debugger).
+fn halt() -> ! {
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
