@@ -39,6 +39,8 @@ const MARGIN: f32 = 1e-4;
 pub struct Analysis<const S: usize, const P: usize> {
     /// Reachable emitting spheres.
     pub lights: Vec<u16, S>,
+    /// All emitting spheres.
+    pub emitters: Vec<u16, S>,
     /// Spheres that can block a shadow ray.
     pub shadow_spheres: Vec<u16, S>,
     /// Planes that can block a shadow ray.
@@ -127,11 +129,13 @@ pub fn analyse<const S: usize, const P: usize>(
 
     // reachable emitters
     let mut lights: Vec<u16, S> = Vec::new();
+    let mut emitters: Vec<u16, S> = Vec::new();
     for (i, l) in spheres.iter().enumerate() {
         let emits = matches!(materials.get(l.material as usize), Some(Material::Light(le)) if le.max_component() > 0.0);
         if !emits {
             continue;
         }
+        let _ = emitters.push(i as u16);
         let hidden_by_plane = opaque_planes().any(|p| light_behind(p, l));
         let hidden_by_sphere = opaque_spheres().any(|q| {
             !core::ptr::eq(q, l)
@@ -206,6 +210,7 @@ pub fn analyse<const S: usize, const P: usize>(
 
     Analysis {
         lights,
+        emitters,
         shadow_spheres,
         shadow_planes,
         view_order,

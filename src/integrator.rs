@@ -40,6 +40,55 @@ pub enum Strategy {
     LightOnly,
 }
 
+/// Which work the integrator skips because the scene analysis
+/// ([`crate::analysis`]) proved it unneeded. Every switch is on by default;
+/// turning one off exists to measure what it saves and to test that the
+/// image does not change (bit for bit, except `unreachable_lights` and
+/// `specialize` with several lights, which change the random numbers drawn).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Skip {
+    /// Shadow rays test only objects that can lie between a point and a light.
+    pub shadow_occluders: bool,
+    /// Camera rays test only spheres that can be in view.
+    pub view_culling: bool,
+    /// Run the integrator compiled for the scene's class: without mirror and
+    /// glass code when it has none, without light selection for one light.
+    pub specialize: bool,
+    /// Lights entirely below a surface's horizon are not sampled there.
+    pub horizon: bool,
+    /// Lights that no path can reach are never sampled.
+    pub unreachable_lights: bool,
+    /// A closed scene never looks up the background.
+    pub closed: bool,
+}
+
+impl Skip {
+    /// Every skip on (the default).
+    pub const ALL: Self = Self {
+        shadow_occluders: true,
+        view_culling: true,
+        specialize: true,
+        horizon: true,
+        unreachable_lights: true,
+        closed: true,
+    };
+    /// No skip: the integrator does all the work a general scene needs.
+    pub const NONE: Self = Self {
+        shadow_occluders: false,
+        view_culling: false,
+        specialize: false,
+        horizon: false,
+        unreachable_lights: false,
+        closed: false,
+    };
+}
+
+impl Default for Skip {
+    fn default() -> Self {
+        Self::ALL
+    }
+}
+
 /// Integrator settings. [`Options::default`] is what every image uses unless
 /// a benchmark compares variants.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -56,6 +105,8 @@ pub struct Options {
     pub rr_start: u32,
     /// Guard against endless paths (see the module docs).
     pub max_depth: u32,
+    /// Work skipped because the scene cannot need it.
+    pub skip: Skip,
 }
 
 impl Default for Options {
@@ -66,6 +117,7 @@ impl Default for Options {
             fast_math: false,
             rr_start: 3,
             max_depth: 256,
+            skip: Skip::ALL,
         }
     }
 }
@@ -127,29 +179,50 @@ struct LightChoice {
     p_sel: f32,
 }
 
-/// Light-selection weight of one emitter seen from `x` with normal `n`:
-/// luminance × (1 − cos θ_max) ∝ radiance × subtended solid angle; 0 if the
-/// whole cone is below the horizon (n·(c − x) < −r) or `x` is inside.
-#[inline]
-fn light_weight(x: Vec3, n: Vec3, center: Vec3, radius: f32, r2: f32, lum: f32) -> f32 {
-    let to_c = center - x;
-    let d2 = to_c.length_squared();
-    if !(d2 > r2) || n.dot(to_c) < -radius {
-        return 0.0;
-    }
-    lum * light::one_minus_cos_max(r2, d2)
+/// The scene as one path sees it: the view plus the skips in force.
+struct Ctx<'v, 'a> {
+    scene: &'v SceneView<'a>,
+    /// Emitters that next-event estimation samples.
+    lights: &'a [u16],
+    /// Zero weight for lights entirely below the horizon.
+    horizon: bool,
 }
 
-impl SceneView<'_> {
+impl Ctx<'_, '_> {
     fn light_lum(&self, sphere: usize) -> f32 {
-        match self
+        let s = &self.scene;
+        match s
             .spheres
             .get(sphere)
-            .and_then(|s| self.materials.get(s.material as usize))
+            .and_then(|x| s.materials.get(x.material as usize))
         {
             Some(Material::Light(le)) => le.luminance(),
             _ => 0.0,
         }
+    }
+
+    /// Whether light sphere `i` can be sampled from `x` with normal `n`:
+    /// `x` outside it and (with the horizon skip) not all of it below the
+    /// tangent plane, `n · (c − x) < −r`.
+    #[inline(always)]
+    fn samplable(&self, x: Vec3, n: Vec3, i: usize) -> Option<(f32, f32)> {
+        let s = self.scene.spheres.get(i)?;
+        let to_c = s.center - x;
+        let d2 = to_c.length_squared();
+        if !(d2 > s.radius2) || (self.horizon && n.dot(to_c) < -s.radius) {
+            return None;
+        }
+        Some((d2, s.radius2))
+    }
+
+    /// Light-selection weight of light `i` at (`x`, `n`): luminance ×
+    /// (1 − cos θ_max), i.e. radiance × subtended solid angle; 0 where it
+    /// cannot be sampled.
+    #[inline]
+    fn light_weight(&self, x: Vec3, n: Vec3, i: usize) -> f32 {
+        self.samplable(x, n, i).map_or(0.0, |(d2, r2)| {
+            self.light_lum(i) * light::one_minus_cos_max(r2, d2)
+        })
     }
 
     /// Picks a light for next-event estimation at `x` (with several lights,
@@ -167,35 +240,16 @@ impl SceneView<'_> {
                 return (None, 0.0);
             };
             let i = one as usize;
-            let ok = self.spheres.get(i).is_some_and(|s| {
-                let to_c = s.center - x;
-                to_c.length_squared() > s.radius2 && n.dot(to_c) >= -s.radius
+            let c = self.samplable(x, n, i).map(|_| LightChoice {
+                sphere: i,
+                p_sel: 1.0,
             });
-            return (
-                if ok {
-                    Some(LightChoice {
-                        sphere: i,
-                        p_sel: 1.0,
-                    })
-                } else {
-                    None
-                },
-                1.0,
-            );
+            return (c, 1.0);
         }
         let u = stream.next_f32();
         let mut sum = 0.0;
         for &l in self.lights {
-            if let Some(s) = self.spheres.get(l as usize) {
-                sum += light_weight(
-                    x,
-                    n,
-                    s.center,
-                    s.radius,
-                    s.radius2,
-                    self.light_lum(l as usize),
-                );
-            }
+            sum += self.light_weight(x, n, l as usize);
         }
         if !(sum > 0.0) {
             return (None, 0.0);
@@ -204,24 +258,15 @@ impl SceneView<'_> {
         let mut acc = 0.0;
         let mut chosen = None;
         for &l in self.lights {
-            if let Some(s) = self.spheres.get(l as usize) {
-                let w = light_weight(
-                    x,
-                    n,
-                    s.center,
-                    s.radius,
-                    s.radius2,
-                    self.light_lum(l as usize),
-                );
-                if w > 0.0 {
-                    acc += w;
-                    chosen = Some(LightChoice {
-                        sphere: l as usize,
-                        p_sel: w / sum,
-                    });
-                    if target < acc {
-                        break;
-                    }
+            let w = self.light_weight(x, n, l as usize);
+            if w > 0.0 {
+                acc += w;
+                chosen = Some(LightChoice {
+                    sphere: l as usize,
+                    p_sel: w / sum,
+                });
+                if target < acc {
+                    break;
                 }
             }
         }
@@ -232,16 +277,14 @@ impl SceneView<'_> {
     /// produced a direction toward light sphere `i` (selection included).
     #[inline]
     fn light_pdf<const MANY: bool>(&self, prev: &PrevVertex, i: usize) -> f32 {
-        let Some(s) = self.spheres.get(i) else {
-            return 0.0;
-        };
-        let to_c = s.center - prev.point;
-        let d2 = to_c.length_squared();
-        if !(d2 > s.radius2) || prev.normal.dot(to_c) < -s.radius {
+        if !self.lights.contains(&(i as u16)) {
             return 0.0;
         }
+        let Some((d2, r2)) = self.samplable(prev.point, prev.normal, i) else {
+            return 0.0;
+        };
         if !MANY {
-            1.0 / (math::TWO_PI * light::one_minus_cos_max(s.radius2, d2))
+            1.0 / (math::TWO_PI * light::one_minus_cos_max(r2, d2))
         } else if prev.weight_sum > 0.0 {
             // p_sel · pdf_cone = (lum · omc / W) · 1 / (2π omc)
             self.light_lum(i) / (math::TWO_PI * prev.weight_sum)
@@ -264,11 +307,25 @@ pub fn radiance(
     opts: &Options,
     stats: &mut Stats,
 ) -> Color {
-    match (scene.specular, scene.lights.len() > 1) {
-        (false, false) => trace::<false, false>(scene, ray, stream, opts, stats),
-        (false, true) => trace::<false, true>(scene, ray, stream, opts, stats),
-        (true, false) => trace::<true, false>(scene, ray, stream, opts, stats),
-        (true, true) => trace::<true, true>(scene, ray, stream, opts, stats),
+    let skip = &opts.skip;
+    let lights = if skip.unreachable_lights {
+        scene.lights
+    } else {
+        scene.emitters
+    };
+    let ctx = Ctx {
+        scene,
+        lights,
+        horizon: skip.horizon,
+    };
+    if !skip.specialize {
+        return trace::<true, true>(&ctx, ray, stream, opts, stats);
+    }
+    match (scene.specular, lights.len() > 1) {
+        (false, false) => trace::<false, false>(&ctx, ray, stream, opts, stats),
+        (false, true) => trace::<false, true>(&ctx, ray, stream, opts, stats),
+        (true, false) => trace::<true, false>(&ctx, ray, stream, opts, stats),
+        (true, true) => trace::<true, true>(&ctx, ray, stream, opts, stats),
     }
 }
 
@@ -276,12 +333,13 @@ pub fn radiance(
 /// and with several (`MANY`) or at most one light.
 #[inline(always)]
 fn trace<const SPEC: bool, const MANY: bool>(
-    scene: &SceneView<'_>,
+    ctx: &Ctx<'_, '_>,
     ray: Ray,
     stream: &mut SampleStream,
     opts: &Options,
     stats: &mut Stats,
 ) -> Color {
+    let scene = ctx.scene;
     let mut l = Color::ZERO;
     let mut thr = Color::ONE;
     let mut ray = ray;
@@ -300,13 +358,13 @@ fn trace<const SPEC: bool, const MANY: bool>(
     stats.paths += 1;
     let mut depth = 0u32;
     loop {
-        let found = if depth == 0 {
+        let found = if depth == 0 && opts.skip.view_culling {
             scene.closest_hit_primary(&ray)
         } else {
             scene.closest_hit(&ray, from)
         };
         let Some(hit) = found else {
-            if scene.closed {
+            if scene.closed && opts.skip.closed {
                 // nothing can escape a closed scene: a numerical leak
                 stats.leaks += 1;
             } else {
@@ -331,7 +389,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
                                 let pl = hit
                                     .object
                                     .as_sphere()
-                                    .map_or(0.0, |i| scene.light_pdf::<MANY>(&prev, i));
+                                    .map_or(0.0, |i| ctx.light_pdf::<MANY>(&prev, i));
                                 power_heuristic(prev.bsdf_pdf, pl)
                             }
                         }
@@ -348,15 +406,17 @@ fn trace<const SPEC: bool, const MANY: bool>(
                     -hit.normal
                 };
                 let mut weight_sum = 0.0;
-                if opts.strategy != Strategy::BsdfOnly && !scene.lights.is_empty() {
-                    let (choice, sum) = scene.choose_light::<MANY>(hit.point, n, stream);
+                if opts.strategy != Strategy::BsdfOnly && !ctx.lights.is_empty() {
+                    // drawn before the light is chosen, so that skipping a
+                    // light below the horizon never shifts the random numbers
+                    let u = if depth == 0 && opts.stratified {
+                        stream.stratified_2d(2)
+                    } else {
+                        stream.next_2d()
+                    };
+                    let (choice, sum) = ctx.choose_light::<MANY>(hit.point, n, stream);
                     weight_sum = sum;
                     if let Some(c) = choice {
-                        let u = if depth == 0 && opts.stratified {
-                            stream.stratified_2d(2)
-                        } else {
-                            stream.next_2d()
-                        };
                         l += direct(scene, &hit, n, albedo, thr, &c, u, opts, stats);
                     }
                 }
@@ -390,8 +450,8 @@ fn trace<const SPEC: bool, const MANY: bool>(
                 specular = true;
                 ray = hit.spawn(dir);
             }
-            // unreachable: the analysis compiled this variant for a scene
-            // without mirrors or glass
+            // unreachable: this variant was chosen for a scene without
+            // mirrors or glass
             Material::Mirror(_) | Material::Glass(_) => break,
         }
         depth += 1;
@@ -447,7 +507,13 @@ fn direct(
     }
     stats.shadow_rays += 1;
     let shadow = hit.spawn(ls.dir);
-    if scene.occluded(&shadow, ls.dist, hit.object, ObjectId::sphere(c.sphere)) {
+    let target = ObjectId::sphere(c.sphere);
+    let blocked = if opts.skip.shadow_occluders {
+        scene.occluded(&shadow, ls.dist, hit.object, target)
+    } else {
+        scene.occluded_by_any(&shadow, ls.dist, hit.object, target)
+    };
+    if blocked {
         return Color::ZERO;
     }
     let p_light = c.p_sel * ls.pdf;

@@ -56,7 +56,7 @@ pub mod scene;
 pub use budget::{AdaptiveOptions, Budget, Clock};
 pub use camera::{Camera, CameraError, CameraSpec};
 pub use geometry::{Color, Hit, ObjectId, Plane, Ray, Sphere, Vec3};
-pub use integrator::{Options, Stats, Strategy};
+pub use integrator::{Options, Skip, Stats, Strategy};
 pub use material::Material;
 pub use render::Renderer;
 pub use scene::{MaterialId, Scene, SceneBuilder, SceneError, SceneView};

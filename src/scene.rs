@@ -351,6 +351,7 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             planes: &self.planes,
             materials: &self.materials,
             lights: &a.lights,
+            emitters: &a.emitters,
             shadow_spheres: &a.shadow_spheres,
             shadow_planes: &a.shadow_planes,
             primary_spheres: a.view_order.get(..visible).unwrap_or(&a.view_order),
@@ -373,6 +374,8 @@ pub struct SceneView<'a> {
     pub materials: &'a [Material],
     /// Indices of reachable emitting spheres.
     pub lights: &'a [u16],
+    /// Indices of all emitting spheres.
+    pub emitters: &'a [u16],
     /// Spheres that can block a shadow ray.
     pub shadow_spheres: &'a [u16],
     /// Planes that can block a shadow ray.
@@ -473,27 +476,61 @@ impl SceneView<'_> {
     /// objects that the analysis found able to block a shadow ray are tested.
     #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
-        for (i, s) in listed(self.shadow_spheres, self.spheres) {
-            let id = ObjectId::sphere(i);
-            if id == target {
-                continue;
-            }
-            let t = if id == from {
-                s.intersect_from_surface(ray, t_max)
-            } else {
-                s.intersect(ray, t_max)
-            };
-            if t.is_some() {
-                return true;
-            }
-        }
-        for (i, p) in listed(self.shadow_planes, self.planes) {
-            if ObjectId::plane(i) != from && p.intersect(ray, t_max).is_some() {
-                return true;
-            }
-        }
-        false
+        blocked(
+            listed(self.shadow_spheres, self.spheres),
+            listed(self.shadow_planes, self.planes),
+            ray,
+            t_max,
+            from,
+            target,
+        )
     }
+
+    /// [`SceneView::occluded`] testing every object (no analysis).
+    #[inline]
+    pub fn occluded_by_any(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
+        blocked(
+            self.spheres.iter().enumerate(),
+            self.planes.iter().enumerate(),
+            ray,
+            t_max,
+            from,
+            target,
+        )
+    }
+}
+
+/// Whether any of `spheres` and `planes` but `from` and `target` blocks
+/// `ray` before `t_max`.
+#[inline(always)]
+fn blocked<'s, 'p>(
+    spheres: impl Iterator<Item = (usize, &'s Sphere)>,
+    planes: impl Iterator<Item = (usize, &'p Plane)>,
+    ray: &Ray,
+    t_max: f32,
+    from: ObjectId,
+    target: ObjectId,
+) -> bool {
+    for (i, s) in spheres {
+        let id = ObjectId::sphere(i);
+        if id == target {
+            continue;
+        }
+        let t = if id == from {
+            s.intersect_from_surface(ray, t_max)
+        } else {
+            s.intersect(ray, t_max)
+        };
+        if t.is_some() {
+            return true;
+        }
+    }
+    for (i, p) in planes {
+        if ObjectId::plane(i) != from && p.intersect(ray, t_max).is_some() {
+            return true;
+        }
+    }
+    false
 }
 
 #[cfg(test)]

@@ -2,10 +2,10 @@
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use micropt::Options;
+use micropt::{AdaptiveOptions, Budget, Options};
 use micropt_host::image::{Image, OutputFormat};
 use micropt_host::metrics::compare;
-use micropt_host::render::{RenderJob, load_scene, render};
+use micropt_host::render::{BudgetJob, load_scene, render_budget};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -37,9 +37,21 @@ struct RenderArgs {
     /// Output file; the extension picks the format [default: SCENE-STEM.png].
     #[arg(short, long, value_name = "OUT")]
     output: Option<PathBuf>,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..))]
-    spp: u32,
+    /// Samples per pixel (the average, when allocation is adaptive)
+    /// [default: 64 when no other budget is given].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..), group = "budget")]
+    spp: Option<u32>,
+    /// Budget: this many path samples for the whole image.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..), group = "budget")]
+    budget_paths: Option<u64>,
+    /// Budget: stop refining after this many milliseconds (the 1-spp
+    /// preview always completes; not deterministic).
+    #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..), group = "budget")]
+    budget_ms: Option<u64>,
+    /// Spend the budget uniformly (every pixel the same number of samples)
+    /// instead of where the estimated error is largest.
+    #[arg(long)]
+    uniform: bool,
     /// Image size WxH [default: the scene's resolution, else 64x64].
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     size: Option<(u32, u32)>,
@@ -134,20 +146,30 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
     OutputFormat::from_path(&output)?;
     let scene = load_scene(&a.scene)?;
     let (width, height) = a.size.or(scene.resolution()).unwrap_or((64, 64));
-    let job = RenderJob {
+    let budget = match (a.spp, a.budget_paths, a.budget_ms) {
+        (_, Some(p), _) => Budget::Paths(p),
+        (_, _, Some(ms)) => Budget::Deadline(ms.saturating_mul(1000)),
+        (spp, _, _) => Budget::Spp(spp.unwrap_or(64)),
+    };
+    let job = BudgetJob {
         width,
         height,
-        spp: a.spp,
+        budget,
         seed: a.seed,
         threads: a.threads.map_or(0, |t| t as usize),
         options: Options::default(),
+        adaptive: AdaptiveOptions {
+            adaptive: !a.uniform,
+            ..AdaptiveOptions::default()
+        },
     };
-    let n_tiles = micropt::film::tiles(width, height).count() as u64;
+    // a preview and a refinement step per tile
+    let n_tiles = 2 * micropt::film::tile_count(width, height) as u64;
     let bar = if std::io::stderr().is_terminal() {
         let b = ProgressBar::new(n_tiles);
         b.set_style(
             ProgressStyle::with_template(
-                "{spinner} {bar:40} {pos}/{len} tiles  {elapsed} (eta {eta})",
+                "{spinner} {bar:40} {pos}/{len} tile passes  {elapsed} (eta {eta})",
             )
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
@@ -155,18 +177,29 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
     } else {
         ProgressBar::hidden()
     };
-    let out = render(&scene, &job, &|| bar.inc(1))?;
+    let out = render_budget(&scene, &job, &|| bar.inc(1))?;
     bar.finish_and_clear();
     out.image.save(&output, a.exposure)?;
     if a.json {
         let s = &out.stats;
+        let pixels = f64::from(width) * f64::from(height);
         let v = serde_json::json!({
             "scene": a.scene.display().to_string(),
             "output": output.display().to_string(),
             "width": width,
             "height": height,
-            "spp": a.spp,
+            "budget": match budget {
+                Budget::Spp(n) => format!("spp {n}"),
+                Budget::Paths(n) => format!("paths {n}"),
+                Budget::Deadline(us) => format!("ms {}", us / 1000),
+            },
+            "adaptive": !a.uniform,
+            "samples": out.samples,
+            "spp": out.samples as f64 / pixels,
+            "min_pixel_samples": out.counts.iter().copied().min().unwrap_or(0),
+            "max_pixel_samples": out.counts.iter().copied().max().unwrap_or(0),
             "seed": a.seed,
+            "preview_seconds": out.preview_seconds,
             "seconds": out.seconds,
             "paths": s.paths,
             "rays": s.rays(),

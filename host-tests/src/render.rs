@@ -154,9 +154,6 @@ pub struct BudgetOutput {
     pub threads: usize,
 }
 
-/// A tile's accumulators after the preview pass, and its error weight.
-type Preview = (Box<TileAccum>, f32);
-
 /// Runs `work(tile_index)` for every index in `0..n` on `threads` threads.
 fn parallel_tiles(n: usize, threads: usize, work: &(dyn Fn(usize) + Sync)) {
     let next = AtomicUsize::new(0);
@@ -176,10 +173,10 @@ fn parallel_tiles(n: usize, threads: usize, work: &(dyn Fn(usize) + Sync)) {
 }
 
 /// Renders `scene` within `job.budget` on threads: the preview pass over
-/// all tiles, the allocation, then the refinement of every tile, with the
-/// core's per-tile functions. For sample budgets the image is bit-identical
-/// to the core's single-core [`micropt::budget::render_budget`] (which
-/// recomputes the preview instead of keeping it) for any thread count.
+/// all tiles, then the refinement of every tile, with the core's per-tile
+/// functions. For sample budgets the image is bit-identical to the core's
+/// single-core [`micropt::budget::render_budget`] (which recomputes the
+/// preview instead of keeping it) for any thread count.
 pub fn render_budget(
     scene: &Scene,
     job: &BudgetJob,
@@ -204,13 +201,13 @@ pub fn render_budget(
     let start = Instant::now();
 
     // pass 1: preview (sample 0 everywhere), keeping each tile's accumulators
-    let previews: Vec<Mutex<Option<Preview>>> = (0..n).map(|_| Mutex::new(None)).collect();
+    let previews: Vec<Mutex<Option<Box<TileAccum>>>> = (0..n).map(|_| Mutex::new(None)).collect();
     parallel_tiles(n, threads, &|i| {
         let Some(tile) = tile_at(w, h, i) else { return };
         let mut acc = Box::new(TileAccum::new());
         let mut local = Stats::default();
-        let weight = renderer.preview_tile(&tile, &mut acc, &mut local);
-        *previews[i].lock().unwrap_or_else(|e| e.into_inner()) = Some((acc, weight));
+        renderer.preview_tile(&tile, &mut acc, &mut local);
+        *previews[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(acc);
         stats
             .lock()
             .unwrap_or_else(|e| e.into_inner())
@@ -218,15 +215,6 @@ pub fn render_budget(
         on_tile();
     });
     let preview_seconds = start.elapsed().as_secs_f64();
-    let weights: Vec<f32> = previews
-        .iter()
-        .map(|p| {
-            p.lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .as_ref()
-                .map_or(0.0, |x| x.1)
-        })
-        .collect();
 
     // allocation
     let pixels = u64::from(w) * u64::from(h);
@@ -241,7 +229,7 @@ pub fn render_budget(
         b => (budget_samples(&b, w, h).unwrap_or(pixels) - pixels, None),
     };
     let mut shares = vec![0u64; n];
-    allocate_tiles(w, h, &weights, extra, &job.adaptive, |i, s| shares[i] = s);
+    allocate_tiles(w, h, extra, |i, s| shares[i] = s);
 
     // pass 2: refinement
     let image = Mutex::new(Image::new(w, h));
@@ -249,13 +237,12 @@ pub fn render_budget(
     let spent = AtomicU64::new(0);
     parallel_tiles(n, threads, &|i| {
         let Some(tile) = tile_at(w, h, i) else { return };
-        let Some((mut acc, _)) = previews[i].lock().unwrap_or_else(|e| e.into_inner()).take()
-        else {
+        let Some(mut acc) = previews[i].lock().unwrap_or_else(|e| e.into_inner()).take() else {
             return;
         };
         let mut local = Stats::default();
-        let mut stop = || deadline.is_some_and(|d| Instant::now() >= d);
-        if !stop() {
+        let mut stop = |_: u64| deadline.is_some_and(|d| Instant::now() >= d);
+        if !stop(0) {
             let s = renderer.refine_tile(
                 &tile,
                 &mut acc,

@@ -1,0 +1,432 @@
+//! The fixed budget: accounting (never more than one batch over),
+//! completeness (no pixel without a sample), determinism (runs, threads,
+//! host and single-core executors), uniform = plain render, adaptive
+//! allocation beating uniform at equal paths without bias, and every
+//! skip-optimisation leaving the image unchanged.
+
+use embedded_graphics::framebuffer::{Framebuffer, buffer_size};
+use embedded_graphics::pixelcolor::Rgb565;
+use embedded_graphics::pixelcolor::raw::{BigEndian, RawU16};
+use micropt::budget::{BATCH, Clock, TileAccum, render_budget as core_render_budget};
+use micropt::film::{tile_at, tile_count};
+use micropt::{AdaptiveOptions, Budget, Options, Renderer, Scene, Skip, Stats};
+use micropt_host::metrics::compare;
+use micropt_host::reference::{Reference, scenes_dir};
+use micropt_host::render::{BudgetJob, RenderJob, load_scene, render, render_budget};
+
+fn scene(name: &str) -> Scene {
+    load_scene(&scenes_dir().join(format!("{name}.scene"))).unwrap()
+}
+
+fn job(w: u32, h: u32, budget: Budget, seed: u64, threads: usize, adaptive: bool) -> BudgetJob {
+    BudgetJob {
+        width: w,
+        height: h,
+        budget,
+        seed,
+        threads,
+        options: Options::default(),
+        adaptive: AdaptiveOptions {
+            adaptive,
+            ..AdaptiveOptions::default()
+        },
+    }
+}
+
+fn pfm(img: &micropt_host::Image) -> Vec<u8> {
+    let mut v = Vec::new();
+    img.write_pfm(&mut v).unwrap();
+    v
+}
+
+#[test]
+fn sample_budgets_are_spent_exactly_and_every_pixel_is_sampled() {
+    let s = scene("cornell");
+    for adaptive in [false, true] {
+        for (budget, want) in [
+            (Budget::Spp(5), 5 * 40 * 24),
+            (Budget::Paths(12_345), 12_345),
+            // less than one per pixel: the preview still completes
+            (Budget::Paths(7), 40 * 24),
+            (Budget::Paths(40 * 24), 40 * 24),
+        ] {
+            let out = render_budget(&s, &job(40, 24, budget, 1, 2, adaptive), &|| {}).unwrap();
+            assert_eq!(out.samples, want, "{budget:?} adaptive {adaptive}");
+            // the host executor keeps its preview: traced paths = samples
+            assert_eq!(out.stats.paths, want);
+            assert_eq!(out.counts.iter().map(|&c| u64::from(c)).sum::<u64>(), want);
+            assert!(
+                out.counts.iter().all(|&c| c >= 1),
+                "a pixel without a sample"
+            );
+            assert!(out.image.pixels.iter().all(|p| p.is_finite()));
+        }
+    }
+}
+
+#[test]
+fn refinement_looks_at_the_clock_at_least_every_batch() {
+    let s = scene("spheres");
+    let r = Renderer::new(&s, 32, 32).unwrap().seed(3);
+    let tile = tile_at(32, 32, 0).unwrap();
+    for adaptive in [false, true] {
+        let opts = AdaptiveOptions {
+            adaptive,
+            ..AdaptiveOptions::default()
+        };
+        let mut acc = TileAccum::new();
+        let mut stats = Stats::default();
+        r.preview_tile(&tile, &mut acc, &mut stats);
+        let tb = 20_000;
+        let mut looks = Vec::new();
+        let mut stop = |spent: u64| {
+            looks.push(spent);
+            false
+        };
+        let mut st = Stats::default();
+        let spent = r.refine_tile(&tile, &mut acc, tb, &opts, &mut stop, &mut st);
+        assert_eq!(spent, 20_000);
+        assert_eq!(st.paths, 20_000);
+        let total: u64 = (0..256).map(|i| u64::from(acc.count(i))).sum();
+        assert_eq!(total, 256 + 20_000);
+        // the first look comes before any sample, then at most BATCH apart
+        looks.push(spent);
+        assert_eq!(looks[0], 0);
+        for pair in looks.windows(2) {
+            assert!(
+                pair[1] - pair[0] <= BATCH,
+                "adaptive {adaptive}: {} samples between looks",
+                pair[1] - pair[0]
+            );
+        }
+        // and a stop is obeyed at once
+        let mut acc2 = TileAccum::new();
+        r.preview_tile(&tile, &mut acc2, &mut stats);
+        let mut stop_at = |spent: u64| spent >= 1000;
+        let spent = r.refine_tile(&tile, &mut acc2, tb, &opts, &mut stop_at, &mut st);
+        assert!(
+            (1000..1000 + BATCH).contains(&spent),
+            "adaptive {adaptive}: stopped after {spent}"
+        );
+    }
+}
+
+/// A clock that advances one microsecond per sample traced: it reads a
+/// shared path counter that the test's scene callback cannot see, so it
+/// counts calls instead and the deadline is expressed in looks.
+struct LookClock {
+    looks: u64,
+}
+
+impl Clock for LookClock {
+    fn micros(&mut self) -> u64 {
+        self.looks += 1;
+        self.looks
+    }
+}
+
+#[test]
+fn a_deadline_stops_within_one_batch_and_leaves_a_complete_image() {
+    let s = scene("cornell");
+    let (w, h) = (48, 32);
+    let r = Renderer::new(&s, w, h).unwrap().seed(2);
+    let mut acc = TileAccum::new();
+    for deadline_looks in [3u64, 10, 40, 200] {
+        let mut clock = LookClock { looks: 0 };
+        let mut fb = Framebuffer::<
+            Rgb565,
+            RawU16,
+            BigEndian,
+            48,
+            32,
+            { buffer_size::<Rgb565>(48, 32) },
+        >::new();
+        let sum = core_render_budget(
+            &r,
+            Budget::Deadline(deadline_looks),
+            &AdaptiveOptions::default(),
+            &mut acc,
+            &mut clock,
+            &mut fb,
+            1.0,
+        )
+        .unwrap();
+        // every pixel has its preview sample
+        assert!(sum.samples >= u64::from(w * h));
+        // looks after the deadline: the one that saw it, and at most one per
+        // remaining tile (each skipped at once) and the final reading
+        let after = clock.looks.saturating_sub(deadline_looks);
+        assert!(
+            after <= tile_count(w, h) as u64 + 2,
+            "{deadline_looks}: {after} looks after the deadline"
+        );
+        // samples traced after the deadline are bounded by one batch per look
+        // that returned "go on", which is at most the looks before the deadline
+        assert!(sum.samples <= u64::from(w * h) + deadline_looks * BATCH + BATCH);
+    }
+}
+
+#[test]
+fn sample_budgets_are_deterministic_across_runs_threads_and_executors() {
+    let s = scene("spheres");
+    for budget in [Budget::Spp(3), Budget::Paths(9_000)] {
+        let a = render_budget(&s, &job(48, 32, budget, 9, 1, true), &|| {}).unwrap();
+        let b = render_budget(&s, &job(48, 32, budget, 9, 2, true), &|| {}).unwrap();
+        let c = render_budget(&s, &job(48, 32, budget, 9, 3, true), &|| {}).unwrap();
+        assert_eq!(pfm(&a.image), pfm(&b.image));
+        assert_eq!(pfm(&a.image), pfm(&c.image));
+        assert_eq!(a.counts, b.counts);
+        // the board's single-core executor (recomputing previews) draws the
+        // same Rgb565 pixels
+        let r = Renderer::new(&s, 48, 32).unwrap().seed(9);
+        let mut acc = TileAccum::new();
+        let mut fb = Framebuffer::<
+            Rgb565,
+            RawU16,
+            BigEndian,
+            48,
+            32,
+            { buffer_size::<Rgb565>(48, 32) },
+        >::new();
+        let mut clock = LookClock { looks: 0 };
+        let sum = core_render_budget(
+            &r,
+            budget,
+            &AdaptiveOptions::default(),
+            &mut acc,
+            &mut clock,
+            &mut fb,
+            1.0,
+        )
+        .unwrap();
+        assert_eq!(
+            fb.data(),
+            a.image.to_rgb565_be(1.0).as_slice(),
+            "{budget:?}"
+        );
+        assert_eq!(sum.samples, a.samples);
+        // the board recomputes each refined tile's preview: one more path per
+        // pixel of a refined tile
+        assert!(sum.stats.paths >= a.stats.paths && sum.stats.paths <= a.stats.paths + 48 * 32);
+    }
+}
+
+#[test]
+fn uniform_spp_budget_equals_the_plain_render_bit_for_bit() {
+    let s = scene("cornell");
+    let plain = render(
+        &s,
+        &RenderJob {
+            width: 40,
+            height: 40,
+            spp: 6,
+            seed: 4,
+            threads: 2,
+            options: Options::default(),
+        },
+        &|| {},
+    )
+    .unwrap();
+    let budget = render_budget(&s, &job(40, 40, Budget::Spp(6), 4, 2, false), &|| {}).unwrap();
+    assert_eq!(pfm(&plain.image), pfm(&budget.image));
+    assert!(budget.counts.iter().all(|&c| c == 6));
+}
+
+/// At the same number of paths, adaptive allocation lowers the MSE against
+/// the reference at least 1.5x on cornell and spheres (mean over seeds), and
+/// the adaptive image's mean still agrees with the reference (no bias that
+/// survives the budget).
+#[test]
+fn adaptive_beats_uniform_at_equal_paths() {
+    for name in ["cornell", "spheres"] {
+        let r = Reference::load(name).unwrap();
+        let s = load_scene(&r.scene_path()).unwrap();
+        let (w, h) = (r.image.width, r.image.height);
+        let noise = r.rms_standard_error * r.rms_standard_error;
+        let (mut uni, mut ada) = (0.0, 0.0);
+        let seeds = 4;
+        for seed in 0..seeds {
+            let u = render_budget(&s, &job(w, h, Budget::Spp(16), seed, 0, false), &|| {}).unwrap();
+            let a = render_budget(&s, &job(w, h, Budget::Spp(16), seed, 0, true), &|| {}).unwrap();
+            assert_eq!(u.samples, a.samples);
+            uni += compare(&u.image, &r.image).unwrap().mse - noise;
+            ada += compare(&a.image, &r.image).unwrap().mse - noise;
+        }
+        let ratio = uni / ada;
+        eprintln!(
+            "{name}: uniform MSE {:.3e}, adaptive {:.3e}: {ratio:.2}x",
+            uni / seeds as f64,
+            ada / seeds as f64
+        );
+        assert!(ratio >= 1.5, "{name}: adaptive only {ratio:.2}x better");
+    }
+}
+
+/// Adaptive allocation steered by a pixel's own samples biases its mean
+/// low (the module docs of `micropt::budget` explain and measure it); the
+/// bias must vanish as the budget grows: at 16x the budget it is at most half
+/// as large, and below 1 % of the image mean.
+#[test]
+fn adaptive_bias_vanishes_as_the_budget_grows() {
+    let r = Reference::load("cornell").unwrap();
+    let s = load_scene(&r.scene_path()).unwrap();
+    let bias = |spp: u32| {
+        let mut b = 0.0;
+        for seed in 0..2 {
+            let out = render_budget(
+                &s,
+                &job(64, 64, Budget::Spp(spp), 50 + seed, 0, true),
+                &|| {},
+            )
+            .unwrap();
+            b += compare(&out.image, &r.image).unwrap().mean_diff / 2.0;
+        }
+        b
+    };
+    let (lo, hi) = (bias(16), bias(256));
+    let mean = r.mean_rgb.iter().sum::<f64>() / 3.0;
+    eprintln!("adaptive bias: {lo:+.2e} at 16 spp, {hi:+.2e} at 256 spp (image mean {mean:.3})");
+    assert!(
+        hi.abs() <= 0.5 * lo.abs(),
+        "bias does not shrink: {lo:e} -> {hi:e}"
+    );
+    assert!(hi.abs() < 0.01 * mean, "bias {hi:e} at 256 spp");
+}
+
+fn skip_with(f: impl Fn(&mut Skip)) -> Options {
+    let mut o = Options::default();
+    f(&mut o.skip);
+    o
+}
+
+fn plain_pfm(s: &Scene, w: u32, h: u32, o: Options) -> Vec<u8> {
+    let out = render(
+        &s.clone(),
+        &RenderJob {
+            width: w,
+            height: h,
+            spp: 4,
+            seed: 5,
+            threads: 2,
+            options: o,
+        },
+        &|| {},
+    )
+    .unwrap();
+    assert_eq!(out.stats.nonfinite, 0);
+    pfm(&out.image)
+}
+
+/// Skips that leave the estimator unchanged give the same bits: shadow
+/// occluder lists, view culling, the closed-scene background skip, and the
+/// horizon test with one light (a light below the horizon has zero
+/// contribution either way, and the random numbers are drawn before the
+/// test). The specialised integrator draws fewer random numbers, so it is
+/// checked within noise.
+#[test]
+fn estimator_preserving_skips_change_no_bit() {
+    for name in [
+        "cornell",
+        "sphere-over-plane",
+        "smallpt",
+        "spheres",
+        "furnace",
+    ] {
+        let s = scene(name);
+        let (w, h) = (40, 30);
+        let all = plain_pfm(&s, w, h, Options::default());
+        let cases: [(&str, Options); 4] = [
+            (
+                "shadow_occluders",
+                skip_with(|k| k.shadow_occluders = false),
+            ),
+            ("view_culling", skip_with(|k| k.view_culling = false)),
+            ("closed", skip_with(|k| k.closed = false)),
+            ("horizon", skip_with(|k| k.horizon = false)),
+        ];
+        for (what, o) in cases {
+            if what == "horizon" && s.lights().len() > 1 {
+                // with several lights the horizon changes the selection
+                // probabilities: same expectation, other random choices
+                continue;
+            }
+            assert!(
+                all == plain_pfm(&s, w, h, o),
+                "{name}: turning off {what} changed the image"
+            );
+        }
+        if s.lights().len() <= 1 {
+            let o = skip_with(|k| k.specialize = false);
+            // one light: the general integrator draws a selection number the
+            // specialised one does not; the images agree within noise
+            let a = render(
+                &s,
+                &RenderJob {
+                    width: w,
+                    height: h,
+                    spp: 64,
+                    seed: 5,
+                    threads: 2,
+                    options: Options::default(),
+                },
+                &|| {},
+            )
+            .unwrap();
+            let b = render(
+                &s,
+                &RenderJob {
+                    width: w,
+                    height: h,
+                    spp: 64,
+                    seed: 6,
+                    threads: 2,
+                    options: o,
+                },
+                &|| {},
+            )
+            .unwrap();
+            let e = compare(&a.image, &b.image).unwrap();
+            let sigma = (e.mse / (f64::from(w * h) * 3.0)).sqrt();
+            assert!(
+                e.mean_diff.abs() < 4.0 * sigma,
+                "{name}: specialize: {} vs {sigma}",
+                e.mean_diff
+            );
+        }
+    }
+}
+
+/// Dropping unreachable lights changes which lights are sampled, so only the
+/// expectation is unchanged: a light behind a wall adds nothing either way.
+#[test]
+fn unreachable_light_skip_keeps_the_expectation() {
+    let text = "camera 0 1 5 0 1 0 0 1 0 50\nmaterial g diffuse 0.5 0.5 0.5\nmaterial l light 4 4 4\n\
+                plane 0 0 0 0 1 0 g\nsphere 0 -3 0 1 l\nsphere 1 3 0 0.5 l\n";
+    let s = micropt::parse::parse(text).unwrap();
+    assert_eq!(s.lights(), &[1]);
+    let run = |o: Options, seed| {
+        render(
+            &s,
+            &RenderJob {
+                width: 32,
+                height: 24,
+                spp: 256,
+                seed,
+                threads: 2,
+                options: o,
+            },
+            &|| {},
+        )
+        .unwrap()
+        .image
+    };
+    let a = run(Options::default(), 1);
+    let b = run(skip_with(|k| k.unreachable_lights = false), 2);
+    let e = compare(&a, &b).unwrap();
+    let sigma = (e.mse / (32.0 * 24.0 * 3.0)).sqrt();
+    assert!(
+        e.mean_diff.abs() < 4.0 * sigma,
+        "{} vs {sigma}",
+        e.mean_diff
+    );
+}
