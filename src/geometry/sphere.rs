@@ -71,7 +71,12 @@ impl Sphere {
             return None;
         }
         let l = f + ray.dir * b;
-        let disc = math::max(self.radius2 - l.dot(l), 0.0);
+        let disc = self.radius2 - l.dot(l);
+        if !(disc >= 0.0) {
+            // a grazing ray whose origin was offset outward (it leaves the
+            // sphere): b > 0 only by rounding, and the line misses
+            return None;
+        }
         let t = b + math::sqrt(disc);
         if t < t_max { Some(t) } else { None }
     }
