@@ -59,7 +59,10 @@ pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
 #[inline]
 pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
     let sin2_t = eta * eta * math::max(0.0, 1.0 - cos_i * cos_i);
-    if sin2_t >= 1.0 {
+    // `!(x < 1)` rather than `x >= 1`: for eta > 1.8e19 (a legal IOR below
+    // 5.4e-20) at normal incidence, eta² · 0 = ∞ · 0 is NaN; the limit of
+    // R = ((eta − 1)/(eta + 1))² there is 1, so reflect
+    if !(sin2_t < 1.0) {
         return (1.0, 0.0);
     }
     let cos_t = math::sqrt(1.0 - sin2_t);
