@@ -73,7 +73,9 @@ pub fn sample_cone(
     let (t, b) = w.basis();
     let dir = w * cos_t + (t * c + b * s) * sin_t;
     // near intersection along dir: d cos θ − √(r² − d² sin²θ)
-    let dist = d * (cos_t - math::safe_sqrt(s2 - sin2_t));
+    // (never negative: from a point within rounding of the surface the
+    // difference may round below 0)
+    let dist = math::max(d * (cos_t - math::safe_sqrt(s2 - sin2_t)), 0.0);
     Some(ConeSample {
         dir,
         dist,

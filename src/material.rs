@@ -59,7 +59,10 @@ pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
 #[inline]
 pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
     let sin2_t = eta * eta * math::max(0.0, 1.0 - cos_i * cos_i);
-    if sin2_t >= 1.0 {
+    // `!(x < 1)` rather than `x >= 1`: for eta > 1.8e19 (a legal IOR below
+    // 5.4e-20) at normal incidence, eta² · 0 = ∞ · 0 is NaN; the limit of
+    // R = ((eta − 1)/(eta + 1))² there is 1, so reflect
+    if !(sin2_t < 1.0) {
         return (1.0, 0.0);
     }
     let cos_t = math::sqrt(1.0 - sin2_t);
@@ -88,10 +91,25 @@ pub fn sample_dielectric(d: Vec3, n: Vec3, ior: f32, u: f32) -> (Vec3, f32) {
     let (r, cos_t) = fresnel_dielectric(cos_i, eta);
     if u < r {
         (reflect(d, nf), 1.0)
-    } else {
+    } else if eta < 4096.0 {
         let t = d * eta + nf * (eta * cos_i - cos_t);
         // renormalise: the formula is exact only in exact arithmetic
         (t.normalize(), eta * eta)
+    } else {
+        // eta ≥ 4096 (an IOR below 1/4096, or above 4096 seen from inside)
+        // refracts only at normal incidence within f32 rounding, where
+        // d·eta − n·(eta cos_i) cancels to garbage (rounding × eta ≥ 2.4e-4,
+        // and up to the wrong side of the surface): build the direction from
+        // its unit tangential part and sin_t, cos_t instead
+        let tang = d + nf * cos_i;
+        let tl = tang.length();
+        let sin_t = math::sqrt(1.0 - cos_t * cos_t);
+        let t = if tl > 0.0 {
+            tang * (sin_t / tl) - nf * cos_t
+        } else {
+            -nf
+        };
+        (t, eta * eta)
     }
 }
 

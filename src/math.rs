@@ -133,6 +133,29 @@ pub fn is_finite(x: f32) -> bool {
     (x.to_bits() & 0x7f80_0000) != 0x7f80_0000
 }
 
+/// Knuth's TwoSum: `(s, e)` with `s = fl(a + b)` and `s + e = a + b`
+/// exactly (no overflow assumed). Only `+` and `-`: the same bits everywhere.
+#[inline(always)]
+pub fn two_sum(a: f32, b: f32) -> (f32, f32) {
+    let s = a + b;
+    let bb = s - a;
+    let e = (a - (s - bb)) + (b - bb);
+    (s, e)
+}
+
+/// Dekker's exact square without a fused multiply-add: `(p, e)` with
+/// `p = fl(a²)` and `p + e = a²` exactly, for |a| < 2¹¹⁴ and squares that
+/// do not underflow. Only `+ - *`: the same bits everywhere.
+#[inline(always)]
+pub fn two_square(a: f32) -> (f32, f32) {
+    let t = 4097.0 * a; // 2^12 + 1: splits a into two 12-bit halves
+    let hi = t - (t - a);
+    let lo = a - hi;
+    let p = a * a;
+    let e = ((hi * hi - p) + 2.0 * hi * lo) + lo * lo;
+    (p, e)
+}
+
 /// The next representable float above `x` (pbrt's `NextFloatUp`).
 #[inline]
 pub fn next_up(x: f32) -> f32 {
@@ -299,6 +322,20 @@ mod tests {
         assert_eq!(copysign(2.0, -0.0), -2.0);
         assert_eq!(clamp(f32::NAN, 0.0, 1.0), 0.0);
         assert!(!is_finite(f32::INFINITY) && !is_finite(f32::NAN) && is_finite(1e38));
+    }
+
+    #[test]
+    fn error_free_transforms_are_exact() {
+        // 2^24 + 1 is not representable: the error term holds the 1
+        let (s, e) = two_sum(16_777_216.0, 1.0);
+        assert_eq!((s, e), (16_777_216.0, 1.0));
+        let (s, e) = two_sum(1.0e8, -0.75);
+        assert_eq!((s, e), (1.0e8, -0.75));
+        // (1 + 2^-12)^2 = 1 + 2^-11 + 2^-24: the last term is the error
+        let a = 1.0 + 1.0 / 4096.0;
+        let (p, e) = two_square(a);
+        assert_eq!(p, 1.0 + 1.0 / 2048.0);
+        assert_eq!(e, 1.0 / 16_777_216.0);
     }
 
     #[test]

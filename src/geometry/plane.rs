@@ -35,14 +35,19 @@ impl Plane {
         if t > 0.0 && t < t_max { Some(t) } else { None }
     }
 
-    /// The hit record at ray parameter `t`: the point is re-projected onto the
-    /// plane, leaving a distance error of at most γ(7)·(|n|·|p| + |offset|).
+    /// The hit record at ray parameter `t`: the point `p = o + t·d` is
+    /// re-projected onto the plane, leaving a distance error of at most
+    /// γ(10)·(|n|·|p| + |offset|).
     #[inline]
     pub fn hit(&self, ray: &Ray, t: f32, id: ObjectId) -> Hit {
         let n = self.normal;
         let p = ray.at(t);
         let point = p - n * (n.dot(p) - self.offset);
-        let error = math::gamma(7) * (n.abs().dot(point.abs()) + math::abs(self.offset));
+        // the projection's rounding scales with the point before projection,
+        // `p`, which lies off the plane by the rounding of o + t·d (large
+        // when the origin is far away) while `point` may be near 0: a bound
+        // on |point| alone let spawned rays start on the wrong side
+        let error = math::gamma(10) * (n.abs().dot(p.abs()) + math::abs(self.offset));
         Hit {
             t,
             point,

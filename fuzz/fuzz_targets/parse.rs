@@ -1,0 +1,65 @@
+//! Fuzz target: the scene parser on arbitrary bytes.
+//!
+//! The parser must never panic (SCENE_FORMAT.md: "Parsing never panics,
+//! whatever bytes it is given"). Beyond not crashing, every outcome is
+//! checked for consistency: an error names a line that exists in the input
+//! and formats without panicking; an accepted scene holds only finite,
+//! in-range values (the validation really ran).
+#![no_main]
+
+use core::fmt::Write;
+use libfuzzer_sys::fuzz_target;
+use micropt::Material;
+use micropt::parse::parse_bytes;
+
+/// A `fmt::Write` sink that only counts bytes (formatting must not panic).
+struct Count(usize);
+
+impl Write for Count {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        self.0 += s.len();
+        Ok(())
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    match parse_bytes(data) {
+        Err(e) => {
+            let lines = data.split(|&b| b == b'\n').count().max(1);
+            assert!(e.line >= 1 && e.line as usize <= lines, "{e:?} of {lines} lines");
+            let mut sink = Count(0);
+            write!(sink, "{e}").unwrap();
+            assert!(sink.0 > 0);
+        }
+        Ok(scene) => {
+            for s in scene.spheres() {
+                assert!(s.center.is_finite() && s.radius.is_finite() && s.radius > 0.0);
+                assert!((s.material as usize) < scene.materials().len());
+            }
+            for p in scene.planes() {
+                assert!(p.normal.is_finite() && p.offset.is_finite());
+                assert!((p.material as usize) < scene.materials().len());
+                assert!(!matches!(
+                    scene.materials()[p.material as usize],
+                    Material::Light(_)
+                ));
+            }
+            for m in scene.materials() {
+                match *m {
+                    Material::Diffuse(c) | Material::Mirror(c) => {
+                        for v in [c.x, c.y, c.z] {
+                            assert!((0.0..=1.0).contains(&v));
+                        }
+                    }
+                    Material::Glass(ior) => assert!(ior.is_finite() && ior > 0.0),
+                    Material::Light(c) => {
+                        assert!(c.is_finite() && c.x >= 0.0 && c.y >= 0.0 && c.z >= 0.0)
+                    }
+                }
+            }
+            let b = scene.background();
+            assert!(b.is_finite() && b.x >= 0.0 && b.y >= 0.0 && b.z >= 0.0);
+            assert!(scene.camera().validate().is_ok());
+        }
+    }
+});
