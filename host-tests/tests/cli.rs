@@ -60,9 +60,14 @@ fn renders_png_pfm_and_rgb565_with_json() {
     let v: serde_json::Value = serde_json::from_str(line.trim()).unwrap();
     assert_eq!(v["width"], 64);
     assert_eq!(v["height"], 64);
-    assert_eq!(v["spp"], 2);
+    assert_eq!(v["spp"], 2.0);
+    assert_eq!(v["samples"], 64 * 64 * 2);
     assert_eq!(v["paths"], 64 * 64 * 2);
+    assert_eq!(v["budget"], "spp 2");
+    assert_eq!(v["adaptive"], true);
     assert_eq!(v["nonfinite"], 0);
+    assert_eq!(v["leaks"], 0);
+    assert!(v["min_pixel_samples"].as_u64().unwrap() >= 1);
     let rays = v["rays"].as_u64().unwrap();
     let parts = v["camera_rays"].as_u64().unwrap()
         + v["bounce_rays"].as_u64().unwrap()
@@ -257,5 +262,78 @@ fn compare_reports_and_thresholds() {
     assert_clean_error(
         &run(&["compare", "/nonexistent.pfm", r.to_str().unwrap()]),
         "cannot open",
+    );
+}
+
+fn json_of(args: &[&str]) -> serde_json::Value {
+    let out = run(args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_str(String::from_utf8(out.stdout).unwrap().trim()).unwrap()
+}
+
+#[test]
+fn budget_flags() {
+    let s = scene("cornell.scene");
+    let s = s.to_str().unwrap();
+    let o = tmp("b.pfm");
+    let o = o.to_str().unwrap();
+    let v = json_of(&[
+        "render",
+        s,
+        "--budget-paths",
+        "10000",
+        "--size",
+        "40x30",
+        "--json",
+        "-o",
+        o,
+    ]);
+    assert_eq!(v["samples"], 10_000);
+    assert_eq!(v["paths"], 10_000);
+    assert_eq!(v["budget"], "paths 10000");
+    let v = json_of(&[
+        "render",
+        s,
+        "--spp",
+        "3",
+        "--uniform",
+        "--size",
+        "40x30",
+        "--json",
+        "-o",
+        o,
+    ]);
+    assert_eq!(v["adaptive"], false);
+    assert_eq!(
+        (
+            v["min_pixel_samples"].as_u64(),
+            v["max_pixel_samples"].as_u64()
+        ),
+        (Some(3), Some(3))
+    );
+    let v = json_of(&[
+        "render",
+        s,
+        "--budget-ms",
+        "50",
+        "--size",
+        "40x30",
+        "--json",
+        "-o",
+        o,
+    ]);
+    assert_eq!(v["budget"], "ms 50");
+    assert!(v["min_pixel_samples"].as_u64().unwrap() >= 1);
+    assert_clean_error(
+        &run(&["render", s, "--spp", "4", "--budget-ms", "5"]),
+        "cannot be used with",
+    );
+    assert_clean_error(
+        &run(&["render", s, "--budget-paths", "0"]),
+        "--budget-paths",
     );
 }

@@ -330,7 +330,15 @@ fn cli_json(scene: &std::path::Path, spp: u32) -> String {
         scene.file_stem().unwrap().to_string_lossy()
     ));
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_micropt"))
-        .args(["render", "--json", "--spp", &spp.to_string(), "-o"])
+        // uniform: the same samples as the library's plain render
+        .args([
+            "render",
+            "--json",
+            "--uniform",
+            "--spp",
+            &spp.to_string(),
+            "-o",
+        ])
         .arg(&out_file)
         .arg(scene)
         .output()

@@ -462,7 +462,7 @@ fn run_random_scenes(mut runner: TestRunner, name: &str) {
                 }
             }
             // the raw estimator, before the film's guard
-            let view = scene.view();
+            let view = scene.view(-1.0);
             let opts = Options::default();
             for k in 0..16 {
                 let ray = renderer.camera().ray(3.0, 3.0);
