@@ -777,7 +777,7 @@ pub fn plot(
     let series: Vec<(String, Vec<(f64, f64)>)> = variants
         .iter()
         .map(|v| {
-            let mut pts: Vec<(f64, f64)> = points
+            let mut pts: Vec<(u32, f64, f64)> = points
                 .iter()
                 .filter(|p| {
                     p.scene == scene
@@ -785,10 +785,12 @@ pub fn plot(
                         && p.mse_corrected > 0.0
                         && p.seconds > 0.0
                 })
-                .map(|p| (p.seconds, p.mse_corrected))
+                .map(|p| (p.spp, p.seconds, p.mse_corrected))
                 .collect();
-            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-            (v.name.clone(), pts)
+            // joined in order of spp: timing noise must not reorder the line
+            pts.sort_by_key(|p| p.0);
+            let line: Vec<(f64, f64)> = pts.into_iter().map(|p| (p.1, p.2)).collect();
+            (v.name.clone(), line)
         })
         .filter(|(_, p)| !p.is_empty())
         .collect();
