@@ -169,7 +169,12 @@ def main():
     ap.add_argument("--spp", default="4,16,64,256", help="comma-separated sample counts")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--micropt", default=os.path.join(ROOT, "target", "release", "micropt"))
-    ap.add_argument("--out", default=None, help="directory for results.json and results.md")
+    ap.add_argument("--out", default=None, help="directory for STEM[-SAMPLER].json and .md")
+    ap.add_argument(
+        "--sampler",
+        default="independent",
+        help="Mitsuba sampler: independent (its default), stratified, multijitter, ldsampler",
+    )
     a = ap.parse_args()
 
     import drjit as dr
@@ -190,7 +195,7 @@ def main():
     with open(a.scene) as f:
         scene = parse_scene(f.read())
     scene.setdefault("resolution", (ref.shape[1], ref.shape[0]))
-    d = mitsuba_dict(mi, scene)
+    d = mitsuba_dict(mi, scene, a.sampler)
     affinity = sorted(os.sched_getaffinity(0))
     print(f"# {stem}: reference {ref_path} (noise MSE {noise:.3e}); CPU affinity {affinity}", file=sys.stderr)
     if len(affinity) != 1:
@@ -246,6 +251,7 @@ def main():
         "scene": stem,
         "mitsuba": mi.__version__,
         "variant": "scalar_rgb",
+        "sampler": a.sampler,
         "threads": "1 each (dr.set_thread_count(1), micropt --threads 1)",
         "affinity": affinity,
         "reference_noise_mse": noise,
@@ -253,7 +259,8 @@ def main():
         "ratios": ratios,
     }
     md = [
-        f"### micropt against Mitsuba {mi.__version__} (scalar_rgb, path) on {stem}, one thread each\n",
+        f"### micropt against Mitsuba {mi.__version__} (scalar_rgb, path, {a.sampler} sampler) on {stem}, "
+        "one thread each\n",
         "| spp | Mitsuba s | micropt s | Mitsuba MSE | micropt MSE | time ratio | MSE ratio | efficiency ratio micropt/Mitsuba |",
         "|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
@@ -261,11 +268,12 @@ def main():
         mt = next(r for r in rows if r["renderer"] == "mitsuba" and r["spp"] == q["spp"])
         mp = next(r for r in rows if r["renderer"] == "micropt" and r["spp"] == q["spp"])
         eff = q["efficiency_ratio_micropt_over_mitsuba"]
+        eff_text = f"{eff:.1f}x" if eff else "n/a"
         md.append(
             f"| {q['spp']} | {mt['seconds_median']:.3f} | {mp['seconds_median']:.3f} | "
             f"{mt['mse_corrected']:.3e} | {mp['mse_corrected']:.3e} | "
             f"{q['time_ratio_mitsuba_over_micropt']:.1f}x | {q['mse_ratio_mitsuba_over_micropt']:.2f}x | "
-            f"{eff:.1f}x |" if eff else "n/a |"
+            f"{eff_text} |"
         )
     md.append(
         f"\nMSE is the mean over {a.seeds} seeds less the reference's own noise ({noise:.2e}); "
@@ -276,9 +284,10 @@ def main():
     print(text)
     if a.out:
         os.makedirs(a.out, exist_ok=True)
-        with open(os.path.join(a.out, f"{stem}.json"), "w") as f:
+        name = stem if a.sampler == "independent" else f"{stem}-{a.sampler}"
+        with open(os.path.join(a.out, f"{name}.json"), "w") as f:
             json.dump(result, f, indent=1)
-        with open(os.path.join(a.out, f"{stem}.md"), "w") as f:
+        with open(os.path.join(a.out, f"{name}.md"), "w") as f:
             f.write(text)
 
 

@@ -86,7 +86,7 @@ fn intersection(c: &mut Criterion) {
         })
     });
     let scene = cornell();
-    let view = scene.view();
+    let view = scene.view(-1.0);
     g.bench_function("cornell closest_hit", |b| {
         b.iter(|| {
             let mut t = 0.0f32;
