@@ -41,9 +41,10 @@ struct BenchArgs {
     /// under two minutes.
     #[arg(long)]
     quick: bool,
-    /// Output directory.
-    #[arg(short, long, default_value = "docs/bench")]
-    out: PathBuf,
+    /// Output directory [default: docs/bench; with --quick: target/bench-quick,
+    /// so that a quick run never overwrites the committed full results].
+    #[arg(short, long)]
+    out: Option<PathBuf>,
     /// Directory of the scene files [default: the repository's scenes/].
     #[arg(long)]
     scenes_dir: Option<PathBuf>,
@@ -312,7 +313,14 @@ fn cmd_bench(a: BenchArgs) -> Result<ExitCode, String> {
         started.elapsed().as_secs_f64(),
         cfg.seeds
     );
-    let written = bench::write_outputs(&a.out, &runs, &variants, &header)?;
+    let out = a.out.unwrap_or_else(|| {
+        PathBuf::from(if a.quick {
+            "target/bench-quick"
+        } else {
+            "docs/bench"
+        })
+    });
+    let written = bench::write_outputs(&out, &runs, &variants, &header)?;
     for p in written {
         eprintln!("wrote {}", p.display());
     }
