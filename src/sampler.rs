@@ -48,42 +48,45 @@ fn lk_permute(mut x: u32, seed: u32) -> u32 {
     x
 }
 
-/// Nested uniform (Owen) scramble of a 32-bit fixed-point value.
+/// The second Sobol dimension of point `i`, *before* bit reversal: the
+/// result `b` gives the 32-bit fixed-point value `b.reverse_bits()`.
+///
+/// Sobol's second generator matrix is Pascal's triangle mod 2: output bit `p`
+/// (counted from the top) is the parity of the index bits `k` with
+/// `C(k, p)` odd, i.e. (Lucas) with `p ⊆ k` as bit sets. That is the superset
+/// sum ("zeta transform") over GF(2), five shift-and-mask steps instead of a
+/// loop over the index's 32 bits; the unit tests check it against the textbook
+/// loop `v ^= v >> 1`.
 #[inline(always)]
-fn owen_scramble(x: u32, seed: u32) -> u32 {
-    lk_permute(x.reverse_bits(), seed).reverse_bits()
-}
-
-/// The first two Sobol dimensions of point `i` as 32-bit fixed point:
-/// van der Corput (bit reversal) and the second dimension's generator.
-#[inline(always)]
-fn sobol2(i: u32) -> (u32, u32) {
-    let x = i.reverse_bits();
-    let mut y = 0u32;
-    let mut v = 1u32 << 31;
-    let mut k = i;
-    while k != 0 {
-        if k & 1 != 0 {
-            y ^= v;
-        }
-        k >>= 1;
-        v ^= v >> 1;
-    }
-    (x, y)
+fn sobol2_unreversed(i: u32) -> u32 {
+    let mut b = i;
+    b ^= (b >> 1) & 0x5555_5555;
+    b ^= (b >> 2) & 0x3333_3333;
+    b ^= (b >> 4) & 0x0f0f_0f0f;
+    b ^= (b >> 8) & 0x00ff_00ff;
+    b ^= (b >> 16) & 0x0000_ffff;
+    b
 }
 
 /// Point `index` of an Owen-scrambled 2-D Sobol sequence identified by `key`.
 /// The index is shuffled by its own scramble (so that different pairs of
 /// dimensions are decorrelated), then both dimensions are scrambled.
+///
+/// With `rev` = bit reversal and `lk` = [`lk_permute`], the definition is
+/// `shuffled = rev(lk(rev(index)))`, `x = rev(shuffled)`,
+/// `y = rev(sobol2_unreversed(shuffled))`, each output `rev(lk(rev(·)))`.
+/// The reversals that cancel are left out: four remain instead of nine, and
+/// the bits are the same.
 #[inline]
 pub fn sobol_2d(index: u32, key: u64) -> [f32; 2] {
     let k = mix64(key);
-    let shuffled = owen_scramble(index, k as u32);
-    let (x, y) = sobol2(shuffled);
+    // rev(shuffled): the first dimension before its own scramble
+    let x = lk_permute(index.reverse_bits(), k as u32);
+    let shuffled = x.reverse_bits();
     let k2 = mix64(k);
     [
-        to_unit(owen_scramble(x, k2 as u32)),
-        to_unit(owen_scramble(y, (k2 >> 32) as u32)),
+        to_unit(lk_permute(shuffled, k2 as u32).reverse_bits()),
+        to_unit(lk_permute(sobol2_unreversed(shuffled), (k2 >> 32) as u32).reverse_bits()),
     ]
 }
 
@@ -173,6 +176,56 @@ mod tests {
         assert_ne!(x, z);
         assert_eq!(a.stratified_2d(1), b.stratified_2d(1));
         assert_ne!(a.stratified_2d(0), a.stratified_2d(1));
+    }
+
+    /// The definitions the fast code rewrites: Owen scramble as
+    /// `rev(lk(rev(x)))` and Sobol's second dimension by its direction
+    /// numbers `v_{k+1} = v_k ^ (v_k >> 1)`.
+    fn owen_scramble(x: u32, seed: u32) -> u32 {
+        lk_permute(x.reverse_bits(), seed).reverse_bits()
+    }
+
+    fn sobol2_reference(i: u32) -> (u32, u32) {
+        let mut y = 0u32;
+        let mut v = 1u32 << 31;
+        let mut k = i;
+        while k != 0 {
+            if k & 1 != 0 {
+                y ^= v;
+            }
+            k >>= 1;
+            v ^= v >> 1;
+        }
+        (i.reverse_bits(), y)
+    }
+
+    fn sobol_2d_reference(index: u32, key: u64) -> [f32; 2] {
+        let k = mix64(key);
+        let shuffled = owen_scramble(index, k as u32);
+        let (x, y) = sobol2_reference(shuffled);
+        let k2 = mix64(k);
+        [
+            to_unit(owen_scramble(x, k2 as u32)),
+            to_unit(owen_scramble(y, (k2 >> 32) as u32)),
+        ]
+    }
+
+    #[test]
+    fn fast_sobol_equals_the_definition_bit_for_bit() {
+        // every single-bit index (each direction number) and a spread of others
+        for b in 0..32 {
+            let i = 1u32 << b;
+            assert_eq!(sobol2_unreversed(i).reverse_bits(), sobol2_reference(i).1);
+        }
+        let mut z = 0x1234_5678_9abc_def0u64;
+        for n in 0..20_000u32 {
+            z = mix64(z);
+            let i = if n < 4096 { n } else { z as u32 };
+            assert_eq!(sobol2_unreversed(i).reverse_bits(), sobol2_reference(i).1);
+            let [a, b] = sobol_2d(i, z >> 7);
+            let [c, d] = sobol_2d_reference(i, z >> 7);
+            assert_eq!((a.to_bits(), b.to_bits()), (c.to_bits(), d.to_bits()));
+        }
     }
 
     #[test]

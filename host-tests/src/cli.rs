@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use micropt::{AdaptiveOptions, Budget, Options};
+use micropt_host::bench;
 use micropt_host::image::{Image, OutputFormat};
 use micropt_host::metrics::compare;
 use micropt_host::render::{BudgetJob, load_scene, render_budget};
@@ -28,6 +29,41 @@ enum Command {
     Render(RenderArgs),
     /// Compare two PFM images: MSE, RMSE, relMSE and mean difference.
     Compare(CompareArgs),
+    /// Run time against error: render every scene with a reference at a
+    /// geometric series of spp for each variant, write CSV, markdown and
+    /// log-log plots.
+    Bench(BenchArgs),
+}
+
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// A reduced run (spp 1, 2, 4 … 128; 2 seeds) that finishes in well
+    /// under two minutes.
+    #[arg(long)]
+    quick: bool,
+    /// Output directory [default: docs/bench; with --quick: target/bench-quick,
+    /// so that a quick run never overwrites the committed full results].
+    #[arg(short, long)]
+    out: Option<PathBuf>,
+    /// Directory of the scene files [default: the repository's scenes/].
+    #[arg(long)]
+    scenes_dir: Option<PathBuf>,
+    /// Directory of the reference PFM/JSON pairs [default: host-tests/data/].
+    #[arg(long)]
+    data_dir: Option<PathBuf>,
+    /// Only these scenes (repeatable; by file stem).
+    #[arg(long = "scene", value_name = "NAME")]
+    scenes: Vec<String>,
+    /// Only these variants (repeatable): mis, bsdf-only, light-only,
+    /// independent, fast-math, all-cores.
+    #[arg(long = "variant", value_name = "NAME")]
+    variants: Vec<String>,
+    /// Highest spp of the series 1, 2, 4, … [default: 1024; quick: 128].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    max_spp: Option<u32>,
+    /// Seeds per spp level [default: 3; quick: 2].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    seeds: Option<u32>,
 }
 
 #[derive(clap::Args)]
@@ -113,6 +149,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(a) => cmd_render(a),
         Command::Compare(a) => cmd_compare(a),
+        Command::Bench(a) => cmd_bench(a),
     };
     match result {
         Ok(code) => code,
@@ -231,4 +268,95 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode, String> {
         }
         _ => Ok(ExitCode::SUCCESS),
     }
+}
+
+fn cmd_bench(a: BenchArgs) -> Result<ExitCode, String> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let scenes_dir = a.scenes_dir.unwrap_or_else(|| root.join("scenes"));
+    let data_dir = a
+        .data_dir
+        .unwrap_or_else(|| root.join("host-tests").join("data"));
+    let mut scenes = bench::discover_scenes(&scenes_dir, &data_dir)?;
+    if !a.scenes.is_empty() {
+        for want in &a.scenes {
+            if !scenes.iter().any(|s| &s.name == want) {
+                return Err(format!(
+                    "no scene '{want}' with a reference (have: {})",
+                    scenes
+                        .iter()
+                        .map(|s| s.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+            }
+        }
+        scenes.retain(|s| a.scenes.contains(&s.name));
+    }
+    let mut variants = bench::standard_variants();
+    if !a.variants.is_empty() {
+        for want in &a.variants {
+            if !variants.iter().any(|v| &v.name == want) {
+                return Err(format!(
+                    "no variant '{want}' (have: {})",
+                    variants
+                        .iter()
+                        .map(|v| v.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+            }
+        }
+        variants.retain(|v| a.variants.contains(&v.name));
+    }
+    let (spp, seeds) = if a.quick {
+        (
+            bench::geometric_spp(a.max_spp.unwrap_or(128)),
+            a.seeds.unwrap_or(2),
+        )
+    } else {
+        (
+            bench::geometric_spp(a.max_spp.unwrap_or(1024)),
+            a.seeds.unwrap_or(3),
+        )
+    };
+    let machine = bench::machine_summary();
+    let started = std::time::Instant::now();
+    eprintln!(
+        "micropt bench: {} scenes x {} variants x spp {:?} x {} seeds on {machine}",
+        scenes.len(),
+        variants.len(),
+        spp,
+        seeds
+    );
+    let cfg = bench::BenchConfig {
+        scenes,
+        variants: variants.clone(),
+        spp,
+        seeds,
+    };
+    let runs = bench::run_all(&cfg, &mut |line| eprintln!("{line}"))?;
+    let header = format!(
+        "## micropt bench results\n\nCommand: `micropt bench{}`. Machine: {machine}; 1-minute load average at the end {}. \
+         Total bench time {:.0} s. Seconds are wall-clock medians over {} seeds; \
+         MSE is the mean over seeds with the reference's own noise \
+         (rms_standard_error², from its .json) subtracted. Absolute times \
+         vary between machines; the ratios are what carry.\n",
+        if a.quick { " --quick" } else { "" },
+        bench::load_average(),
+        started.elapsed().as_secs_f64(),
+        cfg.seeds
+    );
+    let out = a.out.unwrap_or_else(|| {
+        PathBuf::from(if a.quick {
+            "target/bench-quick"
+        } else {
+            "docs/bench"
+        })
+    });
+    let written = bench::write_outputs(&out, &runs, &variants, &header)?;
+    for p in written {
+        eprintln!("wrote {}", p.display());
+    }
+    eprintln!("bench finished in {:.1} s", started.elapsed().as_secs_f64());
+    Ok(ExitCode::SUCCESS)
 }

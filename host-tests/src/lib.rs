@@ -5,6 +5,7 @@
 #![cfg(not(target_os = "none"))]
 #![deny(missing_docs)]
 
+pub mod bench;
 pub mod image;
 pub mod metrics;
 pub mod reference;
