@@ -182,8 +182,9 @@ impl TileAccum {
         ) else {
             return;
         };
+        let pixel = r.pixel_sampler(x, y);
         for _ in 0..k {
-            let c = r.sample(x, y, *n, stats);
+            let c = r.sample_in(&pixel, x, y, *n, stats);
             let l = c.luminance();
             *sum += c;
             *l2 += l * l;

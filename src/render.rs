@@ -6,7 +6,7 @@ use crate::camera::{Camera, CameraError};
 use crate::film::Tile;
 use crate::geometry::Color;
 use crate::integrator::{self, Options, Stats};
-use crate::sampler::{SampleStream, pixel_key};
+use crate::sampler::{PixelSampler, pixel_key};
 use crate::scene::{Scene, SceneView};
 
 /// Renders pixels of one scene at one image size.
@@ -89,11 +89,31 @@ impl<'a> Renderer<'a> {
         self.camera.height()
     }
 
+    /// The sampler of pixel (x, y): what all its samples share.
+    #[inline]
+    pub fn pixel_sampler(&self, x: u32, y: u32) -> PixelSampler {
+        PixelSampler::new(pixel_key(self.seed, x, y))
+    }
+
     /// Sample number `index` of pixel (x, y): one path. A non-finite result
     /// is counted in `stats.nonfinite` and returned as zero.
     #[inline]
     pub fn sample(&self, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
-        let mut s = SampleStream::new(pixel_key(self.seed, x, y), index);
+        self.sample_in(&self.pixel_sampler(x, y), x, y, index, stats)
+    }
+
+    /// [`Renderer::sample`] with the pixel's sampler computed beforehand
+    /// ([`Renderer::pixel_sampler`]`(x, y)`; the same bits).
+    #[inline]
+    pub fn sample_in(
+        &self,
+        pixel: &PixelSampler,
+        x: u32,
+        y: u32,
+        index: u32,
+        stats: &mut Stats,
+    ) -> Color {
+        let mut s = pixel.stream(index);
         let [u, v] = if self.options.stratified {
             s.stratified_2d(0)
         } else {
@@ -127,8 +147,9 @@ impl<'a> Renderer<'a> {
         for (i, acc) in sums.iter_mut().take(tile.len()).enumerate() {
             let i = i as u32;
             let (x, y) = (tile.x + i % w, tile.y + i / w);
+            let pixel = self.pixel_sampler(x, y);
             for k in first..first.saturating_add(count) {
-                *acc += self.sample(x, y, k, stats);
+                *acc += self.sample_in(&pixel, x, y, k, stats);
             }
         }
     }

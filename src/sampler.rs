@@ -8,11 +8,16 @@
 //!   sample) are three independently Owen-scrambled 2-D Sobol sequences,
 //!   indexed by the sample number: every prefix of 2^k samples is stratified
 //!   in each 2-D pair (Burley 2020, "Practical Hash-based Owen Scrambling");
-//! * the remaining dimensions come from `rand_xorshift::XorShiftRng`, seeded
-//!   from a hash of the same triple.
-
-use rand_core::{Rng, SeedableRng};
-use rand_xorshift::XorShiftRng;
+//! * the remaining dimensions come from a PCG generator (O'Neill 2014,
+//!   `pcg_setseq_32_rxs_m_xs_32`: a 32-bit LCG with a per-stream increment
+//!   and a permuted output), whose state and increment are hashes of the
+//!   same triple.
+//!
+//! What depends on the pixel only (the scramble seeds of the Sobol pairs and
+//! the key of the generators) is computed once per pixel by
+//! [`PixelSampler::new`]; a sample's stream ([`PixelSampler::stream`]) then
+//! costs two 32-bit hashes. Only 32-bit integer arithmetic runs per sample:
+//! on a Cortex-M4 a 64-bit multiply is several instructions.
 
 /// splitmix64's finaliser: a bijective 64-bit mixer.
 #[inline(always)]
@@ -68,6 +73,15 @@ fn sobol2_unreversed(i: u32) -> u32 {
     b
 }
 
+/// The three Owen-scramble seeds of the 2-D Sobol sequence identified by
+/// `key`: the index shuffle's and each dimension's.
+#[inline]
+pub fn sobol_seeds(key: u64) -> [u32; 3] {
+    let k = mix64(key);
+    let k2 = mix64(k);
+    [k as u32, k2 as u32, (k2 >> 32) as u32]
+}
+
 /// Point `index` of an Owen-scrambled 2-D Sobol sequence identified by `key`.
 /// The index is shuffled by its own scramble (so that different pairs of
 /// dimensions are decorrelated), then both dimensions are scrambled.
@@ -79,57 +93,130 @@ fn sobol2_unreversed(i: u32) -> u32 {
 /// the bits are the same.
 #[inline]
 pub fn sobol_2d(index: u32, key: u64) -> [f32; 2] {
-    let k = mix64(key);
+    sobol_2d_seeded(index, &sobol_seeds(key))
+}
+
+/// [`sobol_2d`] with the seeds of [`sobol_seeds`] computed beforehand.
+#[inline(always)]
+pub fn sobol_2d_seeded(index: u32, seeds: &[u32; 3]) -> [f32; 2] {
+    let [s0, s1, s2] = *seeds;
     // rev(shuffled): the first dimension before its own scramble
-    let x = lk_permute(index.reverse_bits(), k as u32);
+    let x = lk_permute(index.reverse_bits(), s0);
     let shuffled = x.reverse_bits();
-    let k2 = mix64(k);
     [
-        to_unit(lk_permute(shuffled, k2 as u32).reverse_bits()),
-        to_unit(lk_permute(sobol2_unreversed(shuffled), (k2 >> 32) as u32).reverse_bits()),
+        to_unit(lk_permute(shuffled, s1).reverse_bits()),
+        to_unit(lk_permute(sobol2_unreversed(shuffled), s2).reverse_bits()),
     ]
+}
+
+/// A 32-bit integer hash with good avalanche (Chris Wellons' `lowbias32`):
+/// two multiplies and three shift-xors.
+#[inline(always)]
+pub fn hash32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^= x >> 16;
+    x
+}
+
+/// Number of stratified 2-D pairs whose scramble seeds are cached per pixel
+/// (pixel position, first-bounce direction, first light sample); other
+/// pairs are computed when asked for.
+pub const CACHED_PAIRS: usize = 3;
+
+/// The key of stratified pair `pair` of the pixel whose key is `pixel_key`.
+#[inline(always)]
+fn pair_key(pixel_key: u64, pair: u32) -> u64 {
+    pixel_key ^ (pair as u64 + 1).wrapping_mul(0xa076_1d64_78bd_642f)
+}
+
+/// What the sample streams of one pixel share: computed once per pixel, so
+/// that a sample pays only for its own index.
+#[derive(Debug, Clone, Copy)]
+pub struct PixelSampler {
+    key: u64,
+    pairs: [[u32; 3]; CACHED_PAIRS],
+    rng: [u32; 2],
+}
+
+impl PixelSampler {
+    /// The sampler of the pixel whose key is [`pixel_key`]`(seed, x, y)`.
+    #[inline]
+    pub fn new(pixel_key: u64) -> Self {
+        let r = mix64(pixel_key ^ 0xd1b5_4a32_d192_ed03);
+        Self {
+            key: pixel_key,
+            pairs: [
+                sobol_seeds(pair_key(pixel_key, 0)),
+                sobol_seeds(pair_key(pixel_key, 1)),
+                sobol_seeds(pair_key(pixel_key, 2)),
+            ],
+            rng: [r as u32, (r >> 32) as u32],
+        }
+    }
+
+    /// The stream of sample `index` of this pixel.
+    #[inline(always)]
+    pub fn stream(&self, index: u32) -> SampleStream {
+        let [a, b] = self.rng;
+        // two different hashes of the index: the generator's starting state
+        // and its (odd) increment, i.e. which of 2^31 sequences it follows
+        let state = hash32(a ^ index);
+        let inc = hash32(b.wrapping_add(index.wrapping_mul(0x9e37_79b9))) << 1 | 1;
+        SampleStream {
+            pixel: *self,
+            index,
+            state,
+            inc,
+        }
+    }
 }
 
 /// All random numbers of one path sample.
 #[derive(Debug, Clone)]
 pub struct SampleStream {
-    key: u64,
+    pixel: PixelSampler,
     index: u32,
-    rng: XorShiftRng,
+    state: u32,
+    inc: u32,
 }
 
 impl SampleStream {
     /// The stream of sample `index` of the pixel whose key is
-    /// [`pixel_key`]`(seed, x, y)`.
+    /// [`pixel_key`]`(seed, x, y)`: [`PixelSampler::new`] then
+    /// [`PixelSampler::stream`] (which is faster for many samples of one
+    /// pixel).
     #[inline]
     pub fn new(pixel_key: u64, index: u32) -> Self {
-        let a = mix64(pixel_key ^ (index as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-        let b = mix64(a ^ 0xd1b5_4a32_d192_ed03);
-        let mut seed = [0u8; 16];
-        seed[..8].copy_from_slice(&a.to_le_bytes());
-        seed[8..].copy_from_slice(&b.to_le_bytes());
-        Self {
-            key: pixel_key,
-            index,
-            rng: XorShiftRng::from_seed(seed),
-        }
+        PixelSampler::new(pixel_key).stream(index)
     }
 
     /// Stratified 2-D point for dimension pair `pair` (0: pixel position,
-    /// 1: first-bounce direction, 2: first light sample, 3: first
-    /// Russian-roulette/Fresnel choice).
-    #[inline]
+    /// 1: first-bounce direction, 2: first light sample; higher pairs are
+    /// further independent Owen-scrambled Sobol sequences).
+    #[inline(always)]
     pub fn stratified_2d(&self, pair: u32) -> [f32; 2] {
-        sobol_2d(
-            self.index,
-            self.key ^ (pair as u64 + 1).wrapping_mul(0xa076_1d64_78bd_642f),
-        )
+        match self.pixel.pairs.get(pair as usize) {
+            Some(seeds) => sobol_2d_seeded(self.index, seeds),
+            None => sobol_2d(self.index, pair_key(self.pixel.key, pair)),
+        }
+    }
+
+    /// An independent uniformly distributed `u32` (PCG RXS M XS).
+    #[inline(always)]
+    pub fn next_u32(&mut self) -> u32 {
+        let s = self.state;
+        self.state = s.wrapping_mul(747_796_405).wrapping_add(self.inc);
+        let w = ((s >> ((s >> 28) + 4)) ^ s).wrapping_mul(277_803_737);
+        (w >> 22) ^ w
     }
 
     /// An independent uniform float in [0, 1).
     #[inline(always)]
     pub fn next_f32(&mut self) -> f32 {
-        to_unit(self.rng.next_u32())
+        to_unit(self.next_u32())
     }
 
     /// Two independent uniform floats in [0, 1).
@@ -226,6 +313,53 @@ mod tests {
             let [c, d] = sobol_2d_reference(i, z >> 7);
             assert_eq!((a.to_bits(), b.to_bits()), (c.to_bits(), d.to_bits()));
         }
+    }
+
+    #[test]
+    fn pixel_sampler_streams_equal_direct_streams() {
+        let px = PixelSampler::new(pixel_key(3, 10, 20));
+        for i in [0u32, 1, 7, 1000] {
+            let mut a = px.stream(i);
+            let mut b = SampleStream::new(pixel_key(3, 10, 20), i);
+            for p in 0..5 {
+                assert_eq!(a.stratified_2d(p), b.stratified_2d(p));
+            }
+            for _ in 0..8 {
+                assert_eq!(a.next_u32(), b.next_u32());
+            }
+            // pairs beyond the cached ones are the same construction
+            let key = pair_key(pixel_key(3, 10, 20), 4);
+            assert_eq!(a.stratified_2d(4), sobol_2d(i, key));
+        }
+    }
+
+    /// The independent numbers of a pixel's streams: uniform (mean 1/2,
+    /// variance 1/12), and uncorrelated between consecutive draws of a
+    /// stream and between the same draw of consecutive samples.
+    #[test]
+    fn independent_numbers_are_uniform_and_uncorrelated() {
+        let n = 1 << 16;
+        let (mut m, mut m2, mut c_draw, mut c_sample) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+        let px = PixelSampler::new(pixel_key(0, 5, 6));
+        let mut prev_first = 0.5f32;
+        for i in 0..n {
+            let mut s = px.stream(i);
+            let a = s.next_f32();
+            let b = s.next_f32();
+            m += a;
+            m2 += a * a;
+            c_draw += (a - 0.5) * (b - 0.5);
+            c_sample += (a - 0.5) * (prev_first - 0.5);
+            prev_first = a;
+        }
+        let nf = n as f32;
+        let (mean, var) = (m / nf, m2 / nf - (m / nf) * (m / nf));
+        // standard errors: 1/sqrt(12 n) = 1.1e-3 for the mean, 1/(12 sqrt(n))
+        // = 3.3e-4 for the covariances
+        assert!((mean - 0.5).abs() < 5e-3, "{mean}");
+        assert!((var - 1.0 / 12.0).abs() < 2e-3, "{var}");
+        assert!((c_draw / nf).abs() < 1.5e-3, "{}", c_draw / nf);
+        assert!((c_sample / nf).abs() < 1.5e-3, "{}", c_sample / nf);
     }
 
     #[test]
