@@ -24,9 +24,16 @@
 //!   be hit by a camera ray; they are left out of primary-ray tests.
 //! * A scene without mirror or glass objects runs an integrator compiled
 //!   without them; a scene with one light never selects among lights.
+//! * Since no path vertex lies beyond an opaque plane, a ray can hit an
+//!   opaque axis-aligned plane only if it is the nearest such plane on the
+//!   camera's side of its axis, in the direction the ray moves along that
+//!   axis: per axis and direction one plane is tested (one subtraction and
+//!   one division), whatever the number of walls ([`Slabs`]).
+//! * With a single reachable light, the light itself never blocks a shadow
+//!   ray (shadow rays aim at it): it leaves the occluder list.
 
 use crate::camera::CameraSpec;
-use crate::geometry::{Plane, Sphere, Vec3};
+use crate::geometry::{ObjectId, Plane, Sphere, Vec3};
 use crate::material::Material;
 use crate::math;
 use heapless::Vec;
@@ -56,6 +63,110 @@ pub struct Analysis<const S: usize, const P: usize> {
     pub closed: bool,
     /// Some object is a mirror or glass.
     pub specular: bool,
+    /// The opaque axis-aligned planes nearest the camera, per axis and side.
+    pub slabs: Slabs,
+    /// The planes that [`Analysis::slabs`] does not hold (in index order).
+    pub other_planes: Vec<u16, P>,
+}
+
+/// Per axis, the opaque axis-aligned planes nearest the camera below and
+/// above it along that axis. A ray that starts where a path can be moves
+/// toward `hi[k]` if its direction's `k` component is positive and toward
+/// `lo[k]` otherwise, and can hit no other plane of that axis and side
+/// first: one test per axis.
+///
+/// A plane `{x : x_k = c}` is stored by its coordinate `c` (after the sign
+/// of its normal is folded in, `(c − o_k) / d_k` is bit for bit the ray
+/// parameter that [`Plane::intersect`] computes); a side without such a
+/// plane holds ∓∞ and [`ObjectId::NONE`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slabs {
+    /// Coordinate of the nearest plane below the camera, per axis (−∞: none).
+    pub lo: [f32; 3],
+    /// Coordinate of the nearest plane above the camera, per axis (+∞: none).
+    pub hi: [f32; 3],
+    /// The planes of `lo`.
+    pub lo_id: [ObjectId; 3],
+    /// The planes of `hi`.
+    pub hi_id: [ObjectId; 3],
+}
+
+impl Slabs {
+    /// No planes.
+    pub const EMPTY: Self = Self {
+        lo: [f32::NEG_INFINITY; 3],
+        hi: [f32::INFINITY; 3],
+        lo_id: [ObjectId::NONE; 3],
+        hi_id: [ObjectId::NONE; 3],
+    };
+}
+
+/// The axis and the signed coordinate of a plane whose normal is exactly a
+/// coordinate axis (±1 there, 0 elsewhere): `(k, c)` with the plane
+/// `{x : x_k = c}` and `c = n_k · offset`.
+fn axis_plane(p: &Plane) -> Option<(usize, f32)> {
+    let n = [p.normal.x, p.normal.y, p.normal.z];
+    let mut found = None;
+    for (k, &v) in n.iter().enumerate() {
+        if v == 1.0 || v == -1.0 {
+            if found.is_some() {
+                return None;
+            }
+            found = Some((k, v * p.offset));
+        } else if v != 0.0 {
+            return None;
+        }
+    }
+    found
+}
+
+/// [`Slabs`] of the opaque axis-aligned planes that do not pass through the
+/// eye, and the list of every other plane.
+fn slabs<const P: usize>(
+    planes: &[Plane],
+    materials: &[Material],
+    eye: Vec3,
+) -> (Slabs, Vec<u16, P>) {
+    let mut sl = Slabs::EMPTY;
+    let e = [eye.x, eye.y, eye.z];
+    let mut chosen: [Option<usize>; 6] = [None; 6];
+    for (i, p) in planes.iter().enumerate() {
+        let Some((k, c)) = axis_plane(p) else {
+            continue;
+        };
+        if !is_opaque(materials, p.material) {
+            continue;
+        }
+        let (Some(&ek), Some(lo), Some(hi)) = (e.get(k), sl.lo.get_mut(k), sl.hi.get_mut(k)) else {
+            continue;
+        };
+        if c > ek && c < *hi {
+            *hi = c;
+            if let Some(x) = chosen.get_mut(3 + k) {
+                *x = Some(i);
+            }
+        } else if c < ek && c > *lo {
+            *lo = c;
+            if let Some(x) = chosen.get_mut(k) {
+                *x = Some(i);
+            }
+        }
+    }
+    for k in 0..3 {
+        if let (Some(Some(i)), Some(id)) = (chosen.get(k), sl.lo_id.get_mut(k)) {
+            *id = ObjectId::plane(*i);
+        }
+        if let (Some(Some(i)), Some(id)) = (chosen.get(3 + k), sl.hi_id.get_mut(k)) {
+            *id = ObjectId::plane(*i);
+        }
+    }
+    let mut other: Vec<u16, P> = Vec::new();
+    for i in 0..planes.len() {
+        if !chosen.contains(&Some(i)) {
+            let _ = other.push(i as u16);
+        }
+    }
+    (sl, other)
 }
 
 fn is_opaque(materials: &[Material], m: u16) -> bool {
@@ -159,9 +270,11 @@ pub fn analyse<const S: usize, const P: usize>(
     }
     let mut shadow_spheres: Vec<u16, S> = Vec::new();
     for (i, q) in spheres.iter().enumerate() {
-        let skip = is_opaque(materials, q.material)
-            && point_inside(eye, q)
-            && reachable().all(|l| !core::ptr::eq(l, q) && sphere_inside(l, q));
+        let the_only_light = lights.len() == 1 && lights.first() == Some(&(i as u16));
+        let skip = the_only_light
+            || is_opaque(materials, q.material)
+                && point_inside(eye, q)
+                && reachable().all(|l| !core::ptr::eq(l, q) && sphere_inside(l, q));
         if !skip {
             let _ = shadow_spheres.push(i as u16);
         }
@@ -208,6 +321,8 @@ pub fn analyse<const S: usize, const P: usize>(
             )
         });
 
+    let (slabs, other_planes) = slabs(planes, materials, eye);
+
     Analysis {
         lights,
         emitters,
@@ -217,6 +332,8 @@ pub fn analyse<const S: usize, const P: usize>(
         view_keys,
         closed,
         specular,
+        slabs,
+        other_planes,
     }
 }
 
@@ -251,6 +368,7 @@ fn planes_enclose(planes: &[Plane], materials: &[Material], side: &dyn Fn(&Plane
 
 #[cfg(test)]
 mod tests {
+    use crate::geometry::ObjectId;
     use crate::parse::parse;
 
     #[test]
@@ -260,8 +378,18 @@ mod tests {
         assert!(a.closed);
         assert!(a.specular);
         assert!(a.shadow_planes.is_empty(), "{:?}", a.shadow_planes);
-        assert_eq!(a.shadow_spheres.len(), 3);
+        // the matte and chrome spheres; the only light cannot block itself
+        assert_eq!(a.shadow_spheres.as_slice(), &[1, 2]);
         assert_eq!(a.lights.as_slice(), &[0]);
+        // the six walls are the slabs: floor/ceiling (y), back/front (z),
+        // left/right (x); no plane is left to test one by one
+        assert_eq!(a.slabs.lo, [0.0, 0.0, 0.0]);
+        assert_eq!(a.slabs.hi, [1.0, 1.0, 1.0]);
+        assert_eq!(a.slabs.lo_id[1], ObjectId::plane(0));
+        assert_eq!(a.slabs.hi_id[1], ObjectId::plane(1));
+        assert_eq!(a.slabs.lo_id[0], ObjectId::plane(4));
+        assert_eq!(a.slabs.hi_id[2], ObjectId::plane(3));
+        assert!(a.other_planes.is_empty());
     }
 
     #[test]
@@ -286,8 +414,9 @@ mod tests {
         assert!(a.closed);
         // the light (radius 600) reaches outside every wall sphere but the
         // floor's (whose ball, centred at y = 1e5, holds room and light):
-        // only the floor can never block a light sample
-        assert_eq!(a.shadow_spheres.as_slice(), &[0, 1, 2, 3, 5, 6, 7, 8]);
+        // only the floor can never block a light sample (and the light
+        // cannot block itself)
+        assert_eq!(a.shadow_spheres.as_slice(), &[0, 1, 2, 3, 5, 6, 7]);
         assert_eq!(a.lights.as_slice(), &[8]);
     }
 

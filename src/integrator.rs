@@ -60,6 +60,9 @@ pub struct Skip {
     pub unreachable_lights: bool,
     /// A closed scene never looks up the background.
     pub closed: bool,
+    /// Walls (opaque axis-aligned planes) are tested one per axis
+    /// ([`crate::analysis::Slabs`]).
+    pub slabs: bool,
 }
 
 impl Skip {
@@ -71,6 +74,7 @@ impl Skip {
         horizon: true,
         unreachable_lights: true,
         closed: true,
+        slabs: true,
     };
     /// No skip: the integrator does all the work a general scene needs.
     pub const NONE: Self = Self {
@@ -80,6 +84,7 @@ impl Skip {
         horizon: false,
         unreachable_lights: false,
         closed: false,
+        slabs: false,
     };
 }
 
@@ -359,9 +364,11 @@ fn trace<const SPEC: bool, const MANY: bool>(
     let mut depth = 0u32;
     loop {
         let found = if depth == 0 && opts.skip.view_culling {
-            scene.closest_hit_primary(&ray)
-        } else {
+            scene.closest_hit_primary(&ray, opts.skip.slabs)
+        } else if opts.skip.slabs {
             scene.closest_hit(&ray, from)
+        } else {
+            scene.closest_hit_any(&ray, from)
         };
         let Some(hit) = found else {
             if scene.closed && opts.skip.closed {
@@ -508,7 +515,9 @@ fn direct(
     stats.shadow_rays += 1;
     let shadow = hit.spawn(ls.dir);
     let target = ObjectId::sphere(c.sphere);
-    let blocked = if opts.skip.shadow_occluders {
+    // the occluder lists hold what can block a reachable light: shadow rays
+    // toward the others (sampled when that skip is off) test everything
+    let blocked = if opts.skip.shadow_occluders && opts.skip.unreachable_lights {
         scene.occluded(&shadow, ls.dist, hit.object, target)
     } else {
         scene.occluded_by_any(&shadow, ls.dist, hit.object, target)

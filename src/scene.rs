@@ -1,7 +1,7 @@
 //! The fixed-capacity scene: objects, materials, lights, camera, validated
 //! on construction, and the two ray queries (closest hit, occlusion).
 
-use crate::analysis::{Analysis, analyse};
+use crate::analysis::{Analysis, Slabs, analyse};
 use crate::camera::{CameraError, CameraSpec};
 use crate::geometry::{Color, Hit, ObjectId, Plane, Ray, Sphere, Vec3};
 use crate::material::Material;
@@ -355,6 +355,8 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             shadow_spheres: &a.shadow_spheres,
             shadow_planes: &a.shadow_planes,
             primary_spheres: a.view_order.get(..visible).unwrap_or(&a.view_order),
+            slabs: a.slabs,
+            other_planes: &a.other_planes,
             background: self.background,
             closed: a.closed,
             specular: a.specular,
@@ -382,6 +384,10 @@ pub struct SceneView<'a> {
     pub shadow_planes: &'a [u16],
     /// Spheres a camera ray can hit.
     pub primary_spheres: &'a [u16],
+    /// The walls tested one per axis ([`Slabs`]).
+    pub slabs: Slabs,
+    /// The planes that are not in `slabs`.
+    pub other_planes: &'a [u16],
     /// Background radiance.
     pub background: Color,
     /// No ray can escape (the background is never seen).
@@ -390,12 +396,36 @@ pub struct SceneView<'a> {
     pub specular: bool,
 }
 
-/// The nearest hit among `spheres` and `planes` (index iterators), skipping
-/// the surface the ray leaves.
+/// Records the hit of the slab plane along one axis (origin and direction
+/// components `o`, `d`) if it is nearer than `t_best`: the plane `hi` ahead
+/// if the ray moves up the axis, else `lo`. The ray parameter is bit for bit
+/// [`Plane::intersect`]'s (see [`Slabs`]).
 #[inline(always)]
+fn slab_axis(
+    o: f32,
+    d: f32,
+    lo: (f32, ObjectId),
+    hi: (f32, ObjectId),
+    t_best: &mut f32,
+    best: &mut ObjectId,
+) {
+    let (c, id) = if d > 0.0 { hi } else { lo };
+    let t = (c - o) / d;
+    if t > 0.0 && t < *t_best {
+        *t_best = t;
+        *best = id;
+    }
+}
+
+/// The nearest hit among the `slabs` (if given), `planes` and `spheres`
+/// (index iterators), skipping the surface the ray leaves. Planes come
+/// first, so that spheres beyond the nearest wall are rejected early.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn nearest<'s, 'p>(
-    spheres: impl Iterator<Item = (usize, &'s Sphere)>,
+    slabs: Option<&Slabs>,
     planes: impl Iterator<Item = (usize, &'p Plane)>,
+    spheres: impl Iterator<Item = (usize, &'s Sphere)>,
     all_spheres: &[Sphere],
     all_planes: &[Plane],
     ray: &Ray,
@@ -403,6 +433,26 @@ fn nearest<'s, 'p>(
 ) -> Option<Hit> {
     let mut t_best = f32::INFINITY;
     let mut best = ObjectId::NONE;
+    if let Some(sl) = slabs {
+        let (o, d) = (ray.origin, ray.dir);
+        let [lx, ly, lz] = sl.lo;
+        let [hx, hy, hz] = sl.hi;
+        let [ilx, ily, ilz] = sl.lo_id;
+        let [ihx, ihy, ihz] = sl.hi_id;
+        slab_axis(o.x, d.x, (lx, ilx), (hx, ihx), &mut t_best, &mut best);
+        slab_axis(o.y, d.y, (ly, ily), (hy, ihy), &mut t_best, &mut best);
+        slab_axis(o.z, d.z, (lz, ilz), (hz, ihz), &mut t_best, &mut best);
+    }
+    for (i, p) in planes {
+        let id = ObjectId::plane(i);
+        if id == from {
+            continue;
+        }
+        if let Some(t) = p.intersect(ray, t_best) {
+            t_best = t;
+            best = id;
+        }
+    }
     for (i, s) in spheres {
         let id = ObjectId::sphere(i);
         let t = if id == from {
@@ -411,16 +461,6 @@ fn nearest<'s, 'p>(
             s.intersect(ray, t_best)
         };
         if let Some(t) = t {
-            t_best = t;
-            best = id;
-        }
-    }
-    for (i, p) in planes {
-        let id = ObjectId::plane(i);
-        if id == from {
-            continue;
-        }
-        if let Some(t) = p.intersect(ray, t_best) {
             t_best = t;
             best = id;
         }
@@ -442,14 +482,33 @@ fn listed<'a, T>(ids: &'a [u16], all: &'a [T]) -> impl Iterator<Item = (usize, &
 }
 
 impl SceneView<'_> {
-    /// The closest intersection of `ray` in `(0, ∞)`. `from` is the object
-    /// the ray leaves (or [`ObjectId::NONE`]): a plane is never hit again by a
-    /// ray leaving it, and a sphere only on its far side if the ray enters it.
+    /// The closest intersection of `ray` in `(0, ∞)`, for a ray that starts
+    /// where a path can be (on the camera's side of every opaque plane: every
+    /// ray the integrator traces); the walls are tested as [`Slabs`]. `from`
+    /// is the object the ray leaves (or [`ObjectId::NONE`]): a plane is never
+    /// hit again by a ray leaving it, and a sphere only on its far side if
+    /// the ray enters it.
     #[inline]
     pub fn closest_hit(&self, ray: &Ray, from: ObjectId) -> Option<Hit> {
         nearest(
+            Some(&self.slabs),
+            listed(self.other_planes, self.planes),
             self.spheres.iter().enumerate(),
+            self.spheres,
+            self.planes,
+            ray,
+            from,
+        )
+    }
+
+    /// [`SceneView::closest_hit`] for any ray: every plane is tested on its
+    /// own (no slabs).
+    #[inline]
+    pub fn closest_hit_any(&self, ray: &Ray, from: ObjectId) -> Option<Hit> {
+        nearest(
+            None,
             self.planes.iter().enumerate(),
+            self.spheres.iter().enumerate(),
             self.spheres,
             self.planes,
             ray,
@@ -458,22 +517,37 @@ impl SceneView<'_> {
     }
 
     /// The closest intersection of a camera ray: only the spheres that can
-    /// be in view are tested.
+    /// be in view are tested; `slabs` as in [`SceneView::closest_hit`] (or
+    /// every plane on its own).
     #[inline]
-    pub fn closest_hit_primary(&self, ray: &Ray) -> Option<Hit> {
-        nearest(
-            listed(self.primary_spheres, self.spheres),
-            self.planes.iter().enumerate(),
-            self.spheres,
-            self.planes,
-            ray,
-            ObjectId::NONE,
-        )
+    pub fn closest_hit_primary(&self, ray: &Ray, slabs: bool) -> Option<Hit> {
+        if slabs {
+            nearest(
+                Some(&self.slabs),
+                listed(self.other_planes, self.planes),
+                listed(self.primary_spheres, self.spheres),
+                self.spheres,
+                self.planes,
+                ray,
+                ObjectId::NONE,
+            )
+        } else {
+            nearest(
+                None,
+                self.planes.iter().enumerate(),
+                listed(self.primary_spheres, self.spheres),
+                self.spheres,
+                self.planes,
+                ray,
+                ObjectId::NONE,
+            )
+        }
     }
 
     /// Whether anything but the objects `from` (where the ray starts) and
     /// `target` (the light it aims at) blocks `ray` before `t_max`. Only the
-    /// objects that the analysis found able to block a shadow ray are tested.
+    /// objects that the analysis found able to block a shadow ray toward a
+    /// reachable light are tested.
     #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
         blocked(

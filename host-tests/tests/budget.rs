@@ -318,7 +318,8 @@ fn plain_pfm(s: &Scene, w: u32, h: u32, o: Options) -> Vec<u8> {
 }
 
 /// Skips that leave the estimator unchanged give the same bits: shadow
-/// occluder lists, view culling, the closed-scene background skip, and the
+/// occluder lists, view culling, the closed-scene background skip, walls
+/// tested as slabs, and the
 /// horizon test with one light (a light below the horizon has zero
 /// contribution either way, and the random numbers are drawn before the
 /// test). The specialised integrator draws fewer random numbers, so it is
@@ -335,7 +336,7 @@ fn estimator_preserving_skips_change_no_bit() {
         let s = scene(name);
         let (w, h) = (40, 30);
         let all = plain_pfm(&s, w, h, Options::default());
-        let cases: [(&str, Options); 4] = [
+        let cases: [(&str, Options); 5] = [
             (
                 "shadow_occluders",
                 skip_with(|k| k.shadow_occluders = false),
@@ -343,6 +344,7 @@ fn estimator_preserving_skips_change_no_bit() {
             ("view_culling", skip_with(|k| k.view_culling = false)),
             ("closed", skip_with(|k| k.closed = false)),
             ("horizon", skip_with(|k| k.horizon = false)),
+            ("slabs", skip_with(|k| k.slabs = false)),
         ];
         for (what, o) in cases {
             if what == "horizon" && s.lights().len() > 1 {
