@@ -442,7 +442,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
                 // f · cos / pdf = (albedo/π) · cos / (cos/π) = albedo, exactly
                 thr *= albedo;
                 specular = false;
-                ray = hit.spawn(dir);
+                ray = hit.spawn_on(n, dir);
             }
             Material::Mirror(tint) if SPEC => {
                 thr *= tint;
@@ -513,7 +513,7 @@ fn direct(
         return Color::ZERO;
     }
     stats.shadow_rays += 1;
-    let shadow = hit.spawn(ls.dir);
+    let shadow = hit.spawn_on(n, ls.dir);
     let target = ObjectId::sphere(c.sphere);
     // the occluder lists hold what can block a reachable light: shadow rays
     // toward the others (sampled when that skip is off) test everything

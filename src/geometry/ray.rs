@@ -1,7 +1,6 @@
 //! Rays, hit records, and spawning rays from a surface without self-hits.
 
 use super::Vec3;
-use crate::math;
 
 /// A ray: an origin and a unit-length direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -93,37 +92,44 @@ pub struct Hit {
 
 impl Hit {
     /// A ray leaving the hit point along the unit vector `dir`, its origin
-    /// offset to `dir`'s side of the surface by the error bound and rounded
-    /// away from the surface (pbrt-v4's `OffsetRayOrigin`), so that it cannot
-    /// start behind the surface it leaves, at any scale.
+    /// offset to `dir`'s side of the surface ([`offset_origin`]), so that it
+    /// cannot start behind the surface it leaves, at any scale.
     #[inline]
     pub fn spawn(&self, dir: Vec3) -> Ray {
         Ray::new(offset_origin(self.point, self.normal, self.error, dir), dir)
     }
+
+    /// [`Hit::spawn`] when the caller knows the side: `side` is the normal
+    /// or its negation, whichever points to the side `dir` leaves into (the
+    /// shading normal of a diffuse vertex, for its BSDF and light samples).
+    #[inline(always)]
+    pub fn spawn_on(&self, side: Vec3, dir: Vec3) -> Ray {
+        Ray::new(offset_along(self.point, side, self.error), dir)
+    }
 }
 
-/// `p` moved off the surface with normal `n` by the error bound `err`, to the
-/// side that `dir` points into, each coordinate rounded further away.
+/// `p` moved off the surface with unit normal `n` by four times the error
+/// bound `err`, to the side that `dir` points into.
+///
+/// pbrt-v4 offsets by `err` and rounds each coordinate of the sum away from
+/// the surface. Here the factor 4 covers the rounding instead, without the
+/// per-coordinate directed rounding (three branches per coordinate): the sum
+/// `p + off`, rounded to nearest, moves each coordinate by at most
+/// `2⁻²⁴ |o_k|`, hence the point along `n` by at most `2⁻²⁴ (|n|·|o|)`;
+/// every hit's bound is at least `γ(1) (|n|·|p|)` (both shapes include the
+/// rounding of the point's own coordinates), so the rounded origin lies at
+/// least `4·err·(1 − 8·2⁻²⁴) − err ≈ 3·err` beyond `p`, and more than `2·err`
+/// beyond the true surface.
 #[inline]
 pub fn offset_origin(p: Vec3, n: Vec3, err: f32, dir: Vec3) -> Vec3 {
-    let off = if n.dot(dir) < 0.0 { n * -err } else { n * err };
-    let o = p + off;
-    Vec3::new(
-        round_away(o.x, off.x),
-        round_away(o.y, off.y),
-        round_away(o.z, off.z),
-    )
+    let side = if n.dot(dir) < 0.0 { -n } else { n };
+    offset_along(p, side, err)
 }
 
+/// `p + side · 4·err` (see [`offset_origin`]).
 #[inline(always)]
-fn round_away(v: f32, off: f32) -> f32 {
-    if off > 0.0 {
-        math::next_up(v)
-    } else if off < 0.0 {
-        math::next_down(v)
-    } else {
-        v
-    }
+fn offset_along(p: Vec3, side: Vec3, err: f32) -> Vec3 {
+    p + side * (4.0 * err)
 }
 
 #[cfg(test)]
