@@ -3,7 +3,7 @@
 # unlike seconds on a shared machine): tools/icount.sh BIN SCENE SPP [SIZE]
 set -euo pipefail
 bin=$1; scene=$2; spp=$3; size=${4:-}
-args=(render "$scene" --spp "$spp" --threads 1 --json -o /tmp/icount.$$.pfm)
+args=(render "$scene" --spp "$spp" --threads 1 --uniform --json -o /tmp/icount.$$.pfm)
 [ -n "$size" ] && args+=(--size "$size")
 out=$(valgrind --tool=callgrind --callgrind-out-file=/tmp/icount.$$.cg "$bin" "${args[@]}" 2>/tmp/icount.$$.err)
 total=$(grep -oE 'Collected : [0-9]+' /tmp/icount.$$.err | grep -oE '[0-9]+')
