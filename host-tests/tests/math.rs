@@ -39,6 +39,22 @@ fn sincos_turns_within_2_ulp_of_one() {
 }
 
 #[test]
+fn sincos_quarter_within_2_ulp_of_one() {
+    let mut worst = 0.0f64;
+    let q = std::f64::consts::FRAC_PI_4;
+    for i in -500_000..=500_000i32 {
+        let x = (f64::from(i) / 500_000.0 * q) as f32;
+        let (s, c) = math::sincos_quarter(x);
+        let a = f64::from(x);
+        worst = worst
+            .max((f64::from(s) - a.sin()).abs())
+            .max((f64::from(c) - a.cos()).abs());
+    }
+    let worst = worst / f64::from(f32::EPSILON);
+    assert!(worst <= 2.0, "worst {worst} ulp(1)");
+}
+
+#[test]
 fn log2_exp2_powf_within_a_few_ulp() {
     let mut worst_log = 0.0f64;
     let mut worst_pow = 0.0f64;
