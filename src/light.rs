@@ -1,6 +1,7 @@
 //! Sphere lights: uniform sampling of the cone they subtend, and its pdf.
 
 use crate::geometry::Vec3;
+use crate::material::concentric_disk;
 use crate::math;
 
 /// A direction toward a sphere light, the distance to its surface along it,
@@ -39,10 +40,7 @@ pub fn cone_pdf(x: Vec3, center: Vec3, r2: f32) -> f32 {
 /// Samples a direction uniformly within the cone that the sphere
 /// (`center`, squared radius `r2`) subtends from `x`, from `(u1, u2)` in
 /// [0,1)². `None` when `x` is inside or on the sphere (an outward-only emitter
-/// sends nothing inward).
-///
-/// `1 − cos θ = u₁ (1 − cos θ_max)` and `sin²θ = (1 − cos θ)(1 + cos θ)`
-/// keep full relative precision for tiny cones (r/d down to 1e-6 and below).
+/// sends nothing inward). See [`sample_cone_toward`].
 #[inline]
 pub fn sample_cone(
     x: Vec3,
@@ -57,30 +55,53 @@ pub fn sample_cone(
     if !(d2 > r2) {
         return None;
     }
+    let s = sample_cone_toward(to_c, d2, r2, u1, u2, fast);
+    Some(ConeSample {
+        dir: s.dir,
+        dist: s.dist,
+        pdf: 1.0 / (math::TWO_PI * s.omc_max),
+    })
+}
+
+/// A direction sampled in a light's cone by [`sample_cone_toward`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConeDir {
+    /// Unit direction from the shading point.
+    pub dir: Vec3,
+    /// Distance from the shading point to the light's surface along `dir`.
+    pub dist: f32,
+    /// `1 − cos θ_max` of the cone ([`one_minus_cos_max`]): the pdf is
+    /// `1 / (2π omc_max)`.
+    pub omc_max: f32,
+}
+
+/// [`sample_cone`] from the vector `to_c` to the centre and its squared
+/// length `d2` (> `r2`), which the caller has already computed.
+///
+/// A uniform point `(x, y)` of the unit disk ([`concentric_disk`]) with
+/// `ρ² = x² + y²` gives `1 − cos θ = ρ² (1 − cos θ_max)`, uniform in the
+/// cone's solid angle, and the azimuth of `(x, y)`; `sin θ = ρ √(omc_max
+/// (2 − omc))`, so the tangential part is `(x t + y b) √(omc_max (2 − omc))`
+/// with no division by ρ. `1 − cos θ` and `sin²θ = (1 − cos θ)(1 + cos θ)`
+/// keep full relative precision for tiny cones (r/d down to 1e-6 and below).
+#[inline(always)]
+pub fn sample_cone_toward(to_c: Vec3, d2: f32, r2: f32, u1: f32, u2: f32, fast: bool) -> ConeDir {
     let s2 = r2 / d2;
     let omc_max = s2 / (1.0 + math::sqrt(1.0 - s2));
-    let omc = u1 * omc_max;
+    let (x, y, rho2) = concentric_disk(u1, u2, fast);
+    let omc = rho2 * omc_max;
     let cos_t = 1.0 - omc;
     let sin2_t = omc * (2.0 - omc);
-    let sin_t = math::sqrt(sin2_t);
-    let (s, c) = if fast {
-        math::fast_sincos_turns(u2)
-    } else {
-        math::sincos_turns(u2)
-    };
+    let k = math::sqrt(omc_max * (2.0 - omc));
     let d = math::sqrt(d2);
     let w = to_c * (1.0 / d);
     let (t, b) = w.basis();
-    let dir = w * cos_t + (t * c + b * s) * sin_t;
+    let dir = w * cos_t + (t * x + b * y) * k;
     // near intersection along dir: d cos θ − √(r² − d² sin²θ)
     // (never negative: from a point within rounding of the surface the
     // difference may round below 0)
     let dist = math::max(d * (cos_t - math::safe_sqrt(s2 - sin2_t)), 0.0);
-    Some(ConeSample {
-        dir,
-        dist,
-        pdf: 1.0 / (math::TWO_PI * omc_max),
-    })
+    ConeDir { dir, dist, omc_max }
 }
 
 #[cfg(test)]
