@@ -5,6 +5,7 @@ use crate::analysis::{Analysis, Slabs, analyse};
 use crate::camera::{CameraError, CameraSpec};
 use crate::geometry::{Color, Hit, ObjectId, Plane, Ray, Sphere, Vec3};
 use crate::material::Material;
+use crate::math;
 use heapless::Vec;
 
 /// Default capacity: spheres.
@@ -453,15 +454,20 @@ fn nearest<'s, 'p>(
             best = id;
         }
     }
+    // a sphere at exactly the nearest plane's distance wins the tie, as
+    // when spheres were tested first: accept t ≤ t_best, i.e. t < the next
+    // float above it
+    let mut t_max = math::next_up_positive(t_best);
     for (i, s) in spheres {
         let id = ObjectId::sphere(i);
         let t = if id == from {
-            s.intersect_from_surface(ray, t_best)
+            s.intersect_from_surface(ray, t_max)
         } else {
-            s.intersect(ray, t_best)
+            s.intersect(ray, t_max)
         };
         if let Some(t) = t {
             t_best = t;
+            t_max = t;
             best = id;
         }
     }
@@ -488,7 +494,7 @@ impl SceneView<'_> {
     /// is the object the ray leaves (or [`ObjectId::NONE`]): a plane is never
     /// hit again by a ray leaving it, and a sphere only on its far side if
     /// the ray enters it.
-    #[inline]
+    #[inline(always)]
     pub fn closest_hit(&self, ray: &Ray, from: ObjectId) -> Option<Hit> {
         nearest(
             Some(&self.slabs),
@@ -519,7 +525,7 @@ impl SceneView<'_> {
     /// The closest intersection of a camera ray: only the spheres that can
     /// be in view are tested; `slabs` as in [`SceneView::closest_hit`] (or
     /// every plane on its own).
-    #[inline]
+    #[inline(always)]
     pub fn closest_hit_primary(&self, ray: &Ray, slabs: bool) -> Option<Hit> {
         if slabs {
             nearest(

@@ -119,8 +119,11 @@ impl Sphere {
     ///
     /// The point is re-projected onto the sphere (pbrt), which leaves an error
     /// e of at most γ(5)·|p − c| per coordinate relative to the centre, plus
-    /// the rounding of adding the centre back; the stated distance bound is
-    /// e·|n| + |e|²/(2r) (the tangential part counts at second order).
+    /// the rounding of adding the centre back (γ(1)·|p|, counted as γ(5)·|p|:
+    /// the bound then covers five roundings of the point's own coordinates,
+    /// which is what lets [`Hit::spawn`](super::Hit::spawn) offset by 1.25
+    /// times the bound without directed rounding); the stated distance bound
+    /// is e·|n| + |e|²/(2r) (the tangential part counts at second order).
     #[inline]
     pub fn hit(&self, ray: &Ray, t: f32, id: ObjectId) -> Hit {
         let mut local = ray.origin - self.center + ray.dir * t;
@@ -128,7 +131,7 @@ impl Sphere {
         local *= self.radius / len;
         let point = self.center + local;
         let normal = local * (1.0 / self.radius);
-        let err = local.abs() * math::gamma(5) + point.abs() * math::gamma(1);
+        let err = (local.abs() + point.abs()) * math::gamma(5);
         // distance from the surface of the true point moved by e: at most
         // e·n + |e|²/(2r), and at most |e|. The second-order term matters
         // only for spheres a few f32 grid steps wide (r = 0.07 at 8e5, where
