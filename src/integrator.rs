@@ -51,8 +51,8 @@ pub struct Skip {
     pub shadow_occluders: bool,
     /// Camera rays test only spheres that can be in view.
     pub view_culling: bool,
-    /// Run the integrator compiled for the scene's class: without mirror and
-    /// glass code when it has none, without light selection for one light.
+    /// Run the integrator compiled without light selection for a scene with
+    /// one light.
     pub specialize: bool,
     /// Lights entirely below a surface's horizon are not sampled there.
     pub horizon: bool,
@@ -182,6 +182,9 @@ struct LightChoice {
     sphere: usize,
     /// Selection probability.
     p_sel: f32,
+    /// From the vertex to the light's centre, and its squared length.
+    to_c: Vec3,
+    d2: f32,
 }
 
 /// The scene as one path sees it: the view plus the skips in force.
@@ -191,6 +194,37 @@ struct Ctx<'v, 'a> {
     lights: &'a [u16],
     /// Zero weight for lights entirely below the horizon.
     horizon: bool,
+    /// The only light, looked up once per path (scenes with one light).
+    one: Option<OneLight>,
+}
+
+/// What next-event estimation needs of a scene's only light.
+#[derive(Clone, Copy)]
+struct OneLight {
+    sphere: usize,
+    center: Vec3,
+    radius: f32,
+    radius2: f32,
+    le: Color,
+}
+
+impl OneLight {
+    /// The first of `lights`, if it is an emitting sphere.
+    #[inline(always)]
+    fn first(scene: &SceneView<'_>, lights: &[u16]) -> Option<Self> {
+        let i = *lights.first()? as usize;
+        let s = scene.spheres.get(i)?;
+        match scene.materials.get(s.material as usize)? {
+            Material::Light(le) => Some(Self {
+                sphere: i,
+                center: s.center,
+                radius: s.radius,
+                radius2: s.radius2,
+                le: *le,
+            }),
+            _ => None,
+        }
+    }
 }
 
 impl Ctx<'_, '_> {
@@ -209,15 +243,17 @@ impl Ctx<'_, '_> {
     /// Whether light sphere `i` can be sampled from `x` with normal `n`:
     /// `x` outside it and (with the horizon skip) not all of it below the
     /// tangent plane, `n · (c − x) < −r`.
+    /// Returns the vector to the centre, its squared length and the
+    /// squared radius.
     #[inline(always)]
-    fn samplable(&self, x: Vec3, n: Vec3, i: usize) -> Option<(f32, f32)> {
+    fn samplable(&self, x: Vec3, n: Vec3, i: usize) -> Option<(Vec3, f32, f32)> {
         let s = self.scene.spheres.get(i)?;
         let to_c = s.center - x;
         let d2 = to_c.length_squared();
         if !(d2 > s.radius2) || (self.horizon && n.dot(to_c) < -s.radius) {
             return None;
         }
-        Some((d2, s.radius2))
+        Some((to_c, d2, s.radius2))
     }
 
     /// Light-selection weight of light `i` at (`x`, `n`): luminance ×
@@ -225,7 +261,7 @@ impl Ctx<'_, '_> {
     /// cannot be sampled.
     #[inline]
     fn light_weight(&self, x: Vec3, n: Vec3, i: usize) -> f32 {
-        self.samplable(x, n, i).map_or(0.0, |(d2, r2)| {
+        self.samplable(x, n, i).map_or(0.0, |(_, d2, r2)| {
             self.light_lum(i) * light::one_minus_cos_max(r2, d2)
         })
     }
@@ -238,16 +274,18 @@ impl Ctx<'_, '_> {
         &self,
         x: Vec3,
         n: Vec3,
-        stream: &mut SampleStream,
+        stream: &mut SampleStream<'_>,
     ) -> (Option<LightChoice>, f32) {
         if !MANY {
             let Some(&one) = self.lights.first() else {
                 return (None, 0.0);
             };
             let i = one as usize;
-            let c = self.samplable(x, n, i).map(|_| LightChoice {
+            let c = self.samplable(x, n, i).map(|(to_c, d2, _)| LightChoice {
                 sphere: i,
                 p_sel: 1.0,
+                to_c,
+                d2,
             });
             return (c, 1.0);
         }
@@ -263,12 +301,18 @@ impl Ctx<'_, '_> {
         let mut acc = 0.0;
         let mut chosen = None;
         for &l in self.lights {
-            let w = self.light_weight(x, n, l as usize);
+            let i = l as usize;
+            let Some((to_c, d2, r2)) = self.samplable(x, n, i) else {
+                continue;
+            };
+            let w = self.light_lum(i) * light::one_minus_cos_max(r2, d2);
             if w > 0.0 {
                 acc += w;
                 chosen = Some(LightChoice {
-                    sphere: l as usize,
+                    sphere: i,
                     p_sel: w / sum,
+                    to_c,
+                    d2,
                 });
                 if target < acc {
                     break;
@@ -285,7 +329,7 @@ impl Ctx<'_, '_> {
         if !self.lights.contains(&(i as u16)) {
             return 0.0;
         }
-        let Some((d2, r2)) = self.samplable(prev.point, prev.normal, i) else {
+        let Some((_, d2, r2)) = self.samplable(prev.point, prev.normal, i) else {
             return 0.0;
         };
         if !MANY {
@@ -302,13 +346,15 @@ impl Ctx<'_, '_> {
 /// Estimates the radiance arriving along the camera ray `ray` with one path.
 ///
 /// Pure function of its inputs: the same stream gives the same bits. The
-/// integrator is compiled in variants for the scene's class (with or
-/// without mirrors and glass; one light or several), chosen here once per
-/// path, so that a scene pays only for what it contains.
+/// integrator is compiled in two variants, for one light (no light
+/// selection) or several, chosen here once per path. (A third dimension,
+/// without the mirror and glass arms, saved one multiply per vertex and cost
+/// a copy of the whole loop in flash: scenes without them run the general
+/// variant, whose mirror and glass arms they never enter.)
 pub fn radiance(
     scene: &SceneView<'_>,
     ray: Ray,
-    stream: &mut SampleStream,
+    stream: &mut SampleStream<'_>,
     opts: &Options,
     stats: &mut Stats,
 ) -> Color {
@@ -318,19 +364,24 @@ pub fn radiance(
     } else {
         scene.emitters
     };
+    let many = lights.len() > 1 || !skip.specialize;
     let ctx = Ctx {
         scene,
         lights,
         horizon: skip.horizon,
+        one: if many {
+            None
+        } else {
+            OneLight::first(scene, lights)
+        },
     };
     if !skip.specialize {
         return trace::<true, true>(&ctx, ray, stream, opts, stats);
     }
-    match (scene.specular, lights.len() > 1) {
-        (false, false) => trace::<false, false>(&ctx, ray, stream, opts, stats),
-        (false, true) => trace::<false, true>(&ctx, ray, stream, opts, stats),
-        (true, false) => trace::<true, false>(&ctx, ray, stream, opts, stats),
-        (true, true) => trace::<true, true>(&ctx, ray, stream, opts, stats),
+    if many {
+        trace::<true, true>(&ctx, ray, stream, opts, stats)
+    } else {
+        trace::<true, false>(&ctx, ray, stream, opts, stats)
     }
 }
 
@@ -340,7 +391,7 @@ pub fn radiance(
 fn trace<const SPEC: bool, const MANY: bool>(
     ctx: &Ctx<'_, '_>,
     ray: Ray,
-    stream: &mut SampleStream,
+    stream: &mut SampleStream<'_>,
     opts: &Options,
     stats: &mut Stats,
 ) -> Color {
@@ -421,10 +472,36 @@ fn trace<const SPEC: bool, const MANY: bool>(
                     } else {
                         stream.next_2d()
                     };
-                    let (choice, sum) = ctx.choose_light::<MANY>(hit.point, n, stream);
-                    weight_sum = sum;
-                    if let Some(c) = choice {
-                        l += direct(scene, &hit, n, albedo, thr, &c, u, opts, stats);
+                    if MANY {
+                        let (choice, sum) = ctx.choose_light::<MANY>(hit.point, n, stream);
+                        weight_sum = sum;
+                        if let Some(c) = choice {
+                            l += direct::<MANY>(scene, &hit, n, albedo, thr, &c, u, opts, stats);
+                        }
+                    } else if let Some(one) = &ctx.one {
+                        weight_sum = 1.0;
+                        let to_c = one.center - hit.point;
+                        let d2 = to_c.length_squared();
+                        if d2 > one.radius2 && !(ctx.horizon && n.dot(to_c) < -one.radius) {
+                            let c = LightChoice {
+                                sphere: one.sphere,
+                                p_sel: 1.0,
+                                to_c,
+                                d2,
+                            };
+                            l += nee::<MANY>(
+                                scene,
+                                &hit,
+                                n,
+                                thr * albedo,
+                                &c,
+                                one.radius2,
+                                one.le,
+                                u,
+                                opts,
+                                stats,
+                            );
+                        }
                     }
                 }
                 let u = if depth == 0 && opts.stratified {
@@ -485,9 +562,14 @@ fn trace<const SPEC: bool, const MANY: bool>(
 }
 
 /// Next-event estimation toward the chosen light, MIS-weighted.
+///
+/// With `a = p_bsdf / p_light = (cos/π) · 2π (1 − cos θ_max) / p_sel`, the
+/// estimate `f · Le · cos / p_light · w` with `f = albedo/π` and the power
+/// heuristic `w = 1 / (1 + a²)` is `albedo · Le · a / (1 + a²)`: no pdf is
+/// ever divided by. With one light `a ≤ 2`, so `a²` cannot overflow.
 #[allow(clippy::too_many_arguments)]
-#[inline]
-fn direct(
+#[inline(always)]
+fn direct<const MANY: bool>(
     scene: &SceneView<'_>,
     hit: &Hit,
     n: Vec3,
@@ -504,10 +586,37 @@ fn direct(
     let Some(Material::Light(le)) = scene.materials.get(s.material as usize) else {
         return Color::ZERO;
     };
-    let Some(ls) = light::sample_cone(hit.point, s.center, s.radius2, u[0], u[1], opts.fast_math)
-    else {
-        return Color::ZERO;
-    };
+    nee::<MANY>(
+        scene,
+        hit,
+        n,
+        thr * albedo,
+        c,
+        s.radius2,
+        *le,
+        u,
+        opts,
+        stats,
+    )
+}
+
+/// [`direct`] with the light's squared radius and radiance given; `f` is
+/// the throughput times the albedo.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn nee<const MANY: bool>(
+    scene: &SceneView<'_>,
+    hit: &Hit,
+    n: Vec3,
+    f: Color,
+    c: &LightChoice,
+    r2: f32,
+    le: Color,
+    u: [f32; 2],
+    opts: &Options,
+    stats: &mut Stats,
+) -> Color {
+    let ls = light::sample_cone_toward(c.to_c, c.d2, r2, u[0], u[1], opts.fast_math);
     let cos = n.dot(ls.dir);
     if !(cos > 0.0) {
         return Color::ZERO;
@@ -525,11 +634,14 @@ fn direct(
     if blocked {
         return Color::ZERO;
     }
-    let p_light = c.p_sel * ls.pdf;
+    let a = 2.0 * cos * ls.omc_max;
+    let a = if MANY { a / c.p_sel } else { a };
     let w = match opts.strategy {
-        Strategy::Mis => power_heuristic(p_light, cos * math::INV_PI),
-        _ => 1.0,
+        // a/(1 + a²) = 1/(a + 1/a): the second form for the huge `a` of a
+        // light chosen with a tiny probability
+        Strategy::Mis if MANY && a > 1.0e18 => 1.0 / a,
+        Strategy::Mis => a / (1.0 + a * a),
+        _ => a,
     };
-    // f · Le · cos / p = (albedo/π) · Le · cos / p
-    thr * albedo * *le * (cos * math::INV_PI * w / p_light)
+    f * le * w
 }

@@ -7,7 +7,7 @@
 //! them.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use micropt::sampler::{SampleStream, pixel_key};
+use micropt::sampler::{PixelSampler, pixel_key};
 use micropt::{ObjectId, Plane, Ray, Renderer, Scene, Sphere, Stats, Vec3, light, material};
 use std::hint::black_box;
 
@@ -162,24 +162,29 @@ fn sampling(c: &mut Criterion) {
 
     let mut g = c.benchmark_group("rng");
     g.throughput(Throughput::Elements(N as u64));
-    g.bench_function("stream: new + 3 stratified pairs + 8 floats", |b| {
-        b.iter(|| {
-            let mut acc = 0.0f32;
-            for i in 0..N as u32 {
-                let mut s = SampleStream::new(pixel_key(7, i & 63, i >> 6), black_box(i));
-                for pair in 0..3 {
-                    let [a, b] = s.stratified_2d(pair);
-                    acc += a + b;
+    g.bench_function(
+        "pixel sampler + stream + 3 stratified pairs + 8 floats",
+        |b| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for i in 0..N as u32 {
+                    let pixel = PixelSampler::new(pixel_key(7, i & 63, i >> 6));
+                    let mut s = pixel.stream(black_box(i));
+                    for pair in 0..3 {
+                        let [a, b] = s.stratified_2d(pair);
+                        acc += a + b;
+                    }
+                    for _ in 0..8 {
+                        acc += s.next_f32();
+                    }
                 }
-                for _ in 0..8 {
-                    acc += s.next_f32();
-                }
-            }
-            acc
-        })
-    });
-    g.bench_function("xorshift next_f32", |b| {
-        let mut s = SampleStream::new(pixel_key(7, 1, 2), 3);
+                acc
+            })
+        },
+    );
+    g.bench_function("PCG next_f32", |b| {
+        let pixel = PixelSampler::new(pixel_key(7, 1, 2));
+        let mut s = pixel.stream(3);
         b.iter(|| {
             let mut acc = 0.0f32;
             for _ in 0..N {

@@ -19,7 +19,7 @@ use common::*;
 use micropt::integrator::{Options, Stats, power_heuristic, radiance};
 use micropt::light::{cone_pdf, one_minus_cos_max, sample_cone};
 use micropt::material::{fresnel_dielectric, sample_cosine, sample_dielectric};
-use micropt::sampler::SampleStream;
+use micropt::sampler::PixelSampler;
 use micropt::{CameraSpec, Material, Scene, SceneBuilder, Vec3};
 use proptest::prelude::*;
 use proptest::test_runner::TestRunner;
@@ -466,7 +466,8 @@ fn run_random_scenes(mut runner: TestRunner, name: &str) {
             let opts = Options::default();
             for k in 0..16 {
                 let ray = renderer.camera().ray(3.0, 3.0);
-                let mut s = SampleStream::new(k, 0);
+                let pixel = PixelSampler::new(k);
+                let mut s = pixel.stream(0);
                 let l = radiance(&view, ray, &mut s, &opts, &mut stats);
                 prop_assert!(l.is_finite(), "{l:?}");
             }
