@@ -5,7 +5,7 @@
 //! the 1/N convergence of an unbiased estimator.
 
 use micropt::integrator::{Options, Stats, Strategy, radiance};
-use micropt::sampler::{SampleStream, pixel_key};
+use micropt::sampler::{PixelSampler, pixel_key};
 use micropt::{Camera, Ray, Vec3, light};
 use micropt_host::metrics::compare;
 use micropt_host::reference::Reference;
@@ -94,8 +94,9 @@ fn radiance_below_a_sphere_light_follows_the_inverse_square_law() {
         let n = 200_000u32;
         let (mut sum, mut sum2) = (0.0f64, 0.0f64);
         let mut stats = Stats::default();
+        let pixel = PixelSampler::new(pixel_key(42, 0, 0));
         for i in 0..n {
-            let mut s = SampleStream::new(pixel_key(42, 0, 0), i);
+            let mut s = pixel.stream(i);
             let v = f64::from(radiance(&view, ray, &mut s, &opts, &mut stats).x);
             sum += v;
             sum2 += v * v;
@@ -143,8 +144,9 @@ fn cone_sampling_pdf_integrates_to_one_and_hits_the_sphere() {
         );
         let n = 4096u32;
         let mut mean_omc = 0.0f64;
+        let pixel = PixelSampler::new(pixel_key(u64::from(k), 1, 2));
         for i in 0..n {
-            let s = SampleStream::new(pixel_key(u64::from(k), 1, 2), i);
+            let s = pixel.stream(i);
             let [mut u1, u2] = s.stratified_2d(2);
             if i == 0 {
                 u1 = 1.0 - 1.0 / 16_777_216.0; // the rim
@@ -222,9 +224,13 @@ fn mean_sigma(img: &micropt_host::Image, r: &Reference) -> [f64; 3] {
 /// sampling), and the MSE falls as 1/N (the error variance of an unbiased
 /// estimator of independent samples; a plateau would be bias): with
 /// independent samples, the MSE at 4N spp minus the reference's own noise is
-/// 0.2–0.3 of that at N. (Stratified sampling converges faster than 1/N at
-/// these sample counts, so the 1/N law is checked on independent samples;
-/// the stratified MSE must not be worse.)
+/// 0.2–0.3 of that at N, or within three standard errors of 1/4 where the
+/// seeds' spread says the ratio is not known to ±0.05 (glass caustics make
+/// the MSE heavy-tailed: on spheres.scene with 8 seeds the ratio of the
+/// means scattered from 0.19 to 0.34 across seed sets, with either
+/// sampler). (Stratified sampling converges faster than 1/N at these sample
+/// counts, so the 1/N law is checked on independent samples; the stratified
+/// MSE must not be worse.)
 fn unbiased_against_reference(name: &str, n: u32, seeds: u64) {
     let r = Reference::load(name).unwrap();
     let scene = load_scene(&r.scene_path()).unwrap();
@@ -235,6 +241,7 @@ fn unbiased_against_reference(name: &str, n: u32, seeds: u64) {
         ..Options::default()
     };
     let (mut mse_n, mut mse_4n, mut mse_strat) = (0.0, 0.0, 0.0);
+    let (mut sq_n, mut sq_4n) = (0.0, 0.0);
     for seed in 0..seeds {
         let lo = render(
             &scene,
@@ -259,21 +266,34 @@ fn unbiased_against_reference(name: &str, n: u32, seeds: u64) {
             hi.stats.nonfinite + lo.stats.nonfinite + strat.stats.nonfinite,
             0
         );
-        mse_n += compare(&lo.image, &r.image).unwrap().mse / seeds as f64;
-        mse_4n += compare(&hi.image, &r.image).unwrap().mse / seeds as f64;
+        let (e_n, e_4n) = (
+            compare(&lo.image, &r.image).unwrap().mse,
+            compare(&hi.image, &r.image).unwrap().mse,
+        );
+        mse_n += e_n / seeds as f64;
+        mse_4n += e_4n / seeds as f64;
+        sq_n += e_n * e_n / seeds as f64;
+        sq_4n += e_4n * e_4n / seeds as f64;
         mse_strat += compare(&strat.image, &r.image).unwrap().mse / seeds as f64;
         for (img, what) in [(&hi.image, "independent"), (&strat.image, "stratified")] {
             check_mean(name, what, seed, img, &r);
         }
     }
     let ratio = (mse_4n - ref_noise) / (mse_n - ref_noise);
+    // relative standard errors of the two means, from the seeds' spread:
+    // s/√k/m with the sample variance s² = (mean of squares − m²)·k/(k−1)
+    let k = seeds as f64;
+    let rel = |m: f64, sq: f64| ((sq - m * m).max(0.0) / (k - 1.0)).sqrt() / m;
+    let sigma = ratio * (rel(mse_n, sq_n).powi(2) + rel(mse_4n, sq_4n).powi(2)).sqrt();
+    let band = (3.0 * sigma).max(0.05);
     eprintln!(
-        "{name}: independent MSE {mse_n:.3e} at {n} spp, {mse_4n:.3e} at {} spp: ratio {ratio:.3}; stratified {mse_strat:.3e}",
+        "{name}: independent MSE {mse_n:.3e} at {n} spp, {mse_4n:.3e} at {} spp: ratio {ratio:.3} \
+         (standard error {sigma:.3}); stratified {mse_strat:.3e}",
         4 * n
     );
     assert!(
-        (0.2..=0.3).contains(&ratio),
-        "{name}: MSE ratio {ratio} (4N/N) is not ~1/4"
+        (ratio - 0.25).abs() <= band,
+        "{name}: MSE ratio {ratio} (4N/N) is not ~1/4 (allowed ±{band:.3})"
     );
     assert!(
         mse_strat <= mse_4n * 1.05,
@@ -309,5 +329,5 @@ fn sphere_over_plane_is_unbiased() {
 
 #[test]
 fn spheres_is_unbiased() {
-    unbiased_against_reference("spheres", 8, 8);
+    unbiased_against_reference("spheres", 8, 16);
 }
