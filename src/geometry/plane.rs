@@ -32,7 +32,11 @@ impl Plane {
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<f32> {
         let t = (self.offset - self.normal.dot(ray.origin)) / self.normal.dot(ray.dir);
-        if t > 0.0 && t < t_max { Some(t) } else { None }
+        if math::positive_below(t, t_max) {
+            Some(t)
+        } else {
+            None
+        }
     }
 
     /// The hit record at ray parameter `t`: the point `p = o + t·d` is
