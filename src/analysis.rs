@@ -67,6 +67,34 @@ pub struct Analysis<const S: usize, const P: usize> {
     pub slabs: Slabs,
     /// The planes that [`Analysis::slabs`] does not hold (in index order).
     pub other_planes: Vec<u16, P>,
+    /// Every sphere with its id, in index order (what bounce rays test).
+    pub listed_all: Vec<Listed, S>,
+    /// The spheres of `view_order`, in that order, with their ids.
+    pub listed_view: Vec<Listed, S>,
+    /// The spheres of `shadow_spheres`, with their ids.
+    pub listed_shadow: Vec<Listed, S>,
+}
+
+/// A sphere as the ray queries test it: a copy next to its id, so that a
+/// loop over a list reads neither an index nor a second array.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Listed {
+    /// The sphere.
+    pub sphere: Sphere,
+    /// Its id in the scene.
+    pub id: ObjectId,
+}
+
+/// The spheres named by `ids`, copied with their ids.
+fn listed<const S: usize>(spheres: &[Sphere], ids: &[u16]) -> Vec<Listed, S> {
+    ids.iter()
+        .filter_map(|&i| {
+            spheres.get(i as usize).map(|&sphere| Listed {
+                sphere,
+                id: ObjectId::sphere(i as usize),
+            })
+        })
+        .collect()
 }
 
 /// Per axis, the opaque axis-aligned planes nearest the camera below and
@@ -307,7 +335,7 @@ pub fn analyse<const S: usize, const P: usize>(
         let _ = order.push((key, i as u16));
     }
     order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    let view_order = order.iter().map(|&(_, i)| i).collect();
+    let view_order: Vec<u16, S> = order.iter().map(|&(_, i)| i).collect();
     let view_keys = order.iter().map(|&(k, _)| k).collect();
 
     let specular = spheres
@@ -322,6 +350,10 @@ pub fn analyse<const S: usize, const P: usize>(
         });
 
     let (slabs, other_planes) = slabs(planes, materials, eye);
+    let all: Vec<u16, S> = (0..spheres.len()).map(|i| i as u16).collect();
+    let listed_all = listed(spheres, &all);
+    let listed_view = listed(spheres, &view_order);
+    let listed_shadow = listed(spheres, &shadow_spheres);
 
     Analysis {
         lights,
@@ -334,6 +366,9 @@ pub fn analyse<const S: usize, const P: usize>(
         specular,
         slabs,
         other_planes,
+        listed_all,
+        listed_view,
+        listed_shadow,
     }
 }
 

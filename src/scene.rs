@@ -1,7 +1,7 @@
 //! The fixed-capacity scene: objects, materials, lights, camera, validated
 //! on construction, and the two ray queries (closest hit, occlusion).
 
-use crate::analysis::{Analysis, Slabs, analyse};
+use crate::analysis::{Analysis, Listed, Slabs, analyse};
 use crate::camera::{CameraError, CameraSpec};
 use crate::geometry::{Color, Hit, ObjectId, Plane, Ray, Sphere, Vec3};
 use crate::material::Material;
@@ -358,6 +358,9 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             primary_spheres: a.view_order.get(..visible).unwrap_or(&a.view_order),
             slabs: a.slabs,
             other_planes: &a.other_planes,
+            tested: &a.listed_all,
+            tested_primary: a.listed_view.get(..visible).unwrap_or(&a.listed_view),
+            tested_shadow: &a.listed_shadow,
             background: self.background,
             closed: a.closed,
             specular: a.specular,
@@ -389,6 +392,12 @@ pub struct SceneView<'a> {
     pub slabs: Slabs,
     /// The planes that are not in `slabs`.
     pub other_planes: &'a [u16],
+    /// The spheres (copies with their ids) that bounce rays test.
+    pub tested: &'a [Listed],
+    /// The spheres that camera rays test (`primary_spheres`).
+    pub tested_primary: &'a [Listed],
+    /// The spheres that shadow rays test (`shadow_spheres`).
+    pub tested_shadow: &'a [Listed],
     /// Background radiance.
     pub background: Color,
     /// No ray can escape (the background is never seen).
@@ -400,7 +409,9 @@ pub struct SceneView<'a> {
 /// Records the hit of the slab plane along one axis (origin and direction
 /// components `o`, `d`) if it is nearer than `t_best`: the plane `hi` ahead
 /// if the ray moves up the axis, else `lo`. The ray parameter is bit for bit
-/// [`Plane::intersect`]'s (see [`Slabs`]).
+/// [`Plane::intersect`]'s (see [`Slabs`]). The side is the sign bit of `d`:
+/// for `d = ±0` either plane gives t = ±∞, never a hit, as in
+/// [`Plane::intersect`].
 #[inline(always)]
 fn slab_axis(
     o: f32,
@@ -410,24 +421,23 @@ fn slab_axis(
     t_best: &mut f32,
     best: &mut ObjectId,
 ) {
-    let (c, id) = if d > 0.0 { hi } else { lo };
+    let (c, id) = if d.is_sign_negative() { lo } else { hi };
     let t = (c - o) / d;
-    if t > 0.0 && t < *t_best {
+    // t_best > 0: +∞ or an earlier hit
+    if math::positive_below_positive(t, *t_best) {
         *t_best = t;
         *best = id;
     }
 }
 
-/// The nearest hit among the `slabs` (if given), `planes` and `spheres`
-/// (index iterators), skipping the surface the ray leaves. Planes come
+/// The nearest hit among the `slabs` (if given), `planes` (an index
+/// iterator) and `spheres`, skipping the surface the ray leaves. Planes come
 /// first, so that spheres beyond the nearest wall are rejected early.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn nearest<'s, 'p>(
+fn nearest<'p>(
     slabs: Option<&Slabs>,
     planes: impl Iterator<Item = (usize, &'p Plane)>,
-    spheres: impl Iterator<Item = (usize, &'s Sphere)>,
-    all_spheres: &[Sphere],
+    spheres: &[Listed],
     all_planes: &[Plane],
     ray: &Ray,
     from: ObjectId,
@@ -458,21 +468,20 @@ fn nearest<'s, 'p>(
     // when spheres were tested first: accept t ≤ t_best, i.e. t < the next
     // float above it
     let mut t_max = math::next_up_positive(t_best);
-    for (i, s) in spheres {
-        let id = ObjectId::sphere(i);
-        let t = if id == from {
-            s.intersect_from_surface(ray, t_max)
+    let mut hit_sphere: Option<&Listed> = None;
+    for l in spheres {
+        let t = if l.id == from {
+            l.sphere.intersect_from_surface(ray, t_max)
         } else {
-            s.intersect(ray, t_max)
+            l.sphere.intersect(ray, t_max)
         };
         if let Some(t) = t {
-            t_best = t;
             t_max = t;
-            best = id;
+            hit_sphere = Some(l);
         }
     }
-    if let Some(i) = best.as_sphere() {
-        all_spheres.get(i).map(|s| s.hit(ray, t_best, best))
+    if let Some(l) = hit_sphere {
+        Some(l.sphere.hit(ray, t_max, l.id))
     } else if let Some(i) = best.as_plane() {
         all_planes.get(i).map(|p| p.hit(ray, t_best, best))
     } else {
@@ -499,8 +508,7 @@ impl SceneView<'_> {
         nearest(
             Some(&self.slabs),
             listed(self.other_planes, self.planes),
-            self.spheres.iter().enumerate(),
-            self.spheres,
+            self.tested,
             self.planes,
             ray,
             from,
@@ -514,8 +522,7 @@ impl SceneView<'_> {
         nearest(
             None,
             self.planes.iter().enumerate(),
-            self.spheres.iter().enumerate(),
-            self.spheres,
+            self.tested,
             self.planes,
             ray,
             from,
@@ -531,8 +538,7 @@ impl SceneView<'_> {
             nearest(
                 Some(&self.slabs),
                 listed(self.other_planes, self.planes),
-                listed(self.primary_spheres, self.spheres),
-                self.spheres,
+                self.tested_primary,
                 self.planes,
                 ray,
                 ObjectId::NONE,
@@ -541,8 +547,7 @@ impl SceneView<'_> {
             nearest(
                 None,
                 self.planes.iter().enumerate(),
-                listed(self.primary_spheres, self.spheres),
-                self.spheres,
+                self.tested_primary,
                 self.planes,
                 ray,
                 ObjectId::NONE,
@@ -554,10 +559,10 @@ impl SceneView<'_> {
     /// `target` (the light it aims at) blocks `ray` before `t_max`. Only the
     /// objects that the analysis found able to block a shadow ray toward a
     /// reachable light are tested.
-    #[inline]
+    #[inline(always)]
     pub fn occluded(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
         blocked(
-            listed(self.shadow_spheres, self.spheres),
+            self.tested_shadow,
             listed(self.shadow_planes, self.planes),
             ray,
             t_max,
@@ -570,7 +575,7 @@ impl SceneView<'_> {
     #[inline]
     pub fn occluded_by_any(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
         blocked(
-            self.spheres.iter().enumerate(),
+            self.tested,
             self.planes.iter().enumerate(),
             ray,
             t_max,
@@ -583,23 +588,22 @@ impl SceneView<'_> {
 /// Whether any of `spheres` and `planes` but `from` and `target` blocks
 /// `ray` before `t_max`.
 #[inline(always)]
-fn blocked<'s, 'p>(
-    spheres: impl Iterator<Item = (usize, &'s Sphere)>,
+fn blocked<'p>(
+    spheres: &[Listed],
     planes: impl Iterator<Item = (usize, &'p Plane)>,
     ray: &Ray,
     t_max: f32,
     from: ObjectId,
     target: ObjectId,
 ) -> bool {
-    for (i, s) in spheres {
-        let id = ObjectId::sphere(i);
-        if id == target {
+    for l in spheres {
+        if l.id == target {
             continue;
         }
-        let t = if id == from {
-            s.intersect_from_surface(ray, t_max)
+        let t = if l.id == from {
+            l.sphere.intersect_from_surface(ray, t_max)
         } else {
-            s.intersect(ray, t_max)
+            l.sphere.intersect(ray, t_max)
         };
         if t.is_some() {
             return true;
