@@ -351,6 +351,7 @@ impl Ctx<'_, '_> {
 /// without the mirror and glass arms, saved one multiply per vertex and cost
 /// a copy of the whole loop in flash: scenes without them run the general
 /// variant, whose mirror and glass arms they never enter.)
+#[inline(always)]
 pub fn radiance(
     scene: &SceneView<'_>,
     ray: Ray,

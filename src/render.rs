@@ -104,7 +104,7 @@ impl<'a> Renderer<'a> {
 
     /// [`Renderer::sample`] with the pixel's sampler computed beforehand
     /// ([`Renderer::pixel_sampler`]`(x, y)`; the same bits).
-    #[inline]
+    #[inline(always)]
     pub fn sample_in(
         &self,
         pixel: &PixelSampler,
