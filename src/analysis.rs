@@ -99,33 +99,31 @@ fn listed<const S: usize>(spheres: &[Sphere], ids: &[u16]) -> Vec<Listed, S> {
 
 /// Per axis, the opaque axis-aligned planes nearest the camera below and
 /// above it along that axis. A ray that starts where a path can be moves
-/// toward `hi[k]` if its direction's `k` component is positive and toward
-/// `lo[k]` otherwise, and can hit no other plane of that axis and side
-/// first: one test per axis.
+/// toward the one above if its direction's component on that axis is
+/// positive and toward the one below otherwise, and can hit no other plane
+/// of that axis and side first: one test per axis.
 ///
 /// A plane `{x : x_k = c}` is stored by its coordinate `c` (after the sign
 /// of its normal is folded in, `(c − o_k) / d_k` is bit for bit the ray
 /// parameter that [`Plane::intersect`] computes); a side without such a
-/// plane holds ∓∞ and [`ObjectId::NONE`].
+/// plane holds ±∞ and [`ObjectId::NONE`]. Both are indexed `[axis][side]`
+/// with `side` the sign bit of the direction's component: 0 (moving up) for
+/// the plane above, 1 for the one below; a query picks its plane with a
+/// load, not a branch.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Slabs {
-    /// Coordinate of the nearest plane below the camera, per axis (−∞: none).
-    pub lo: [f32; 3],
-    /// Coordinate of the nearest plane above the camera, per axis (+∞: none).
-    pub hi: [f32; 3],
-    /// The planes of `lo`.
-    pub lo_id: [ObjectId; 3],
-    /// The planes of `hi`.
-    pub hi_id: [ObjectId; 3],
+    /// Coordinates: `[k][0]` the nearest plane above the camera along axis
+    /// `k` (+∞: none), `[k][1]` the nearest below (−∞: none).
+    pub c: [[f32; 2]; 3],
+    /// The planes of `c`.
+    pub id: [[ObjectId; 2]; 3],
 }
 
 impl Slabs {
     /// No planes.
     pub const EMPTY: Self = Self {
-        lo: [f32::NEG_INFINITY; 3],
-        hi: [f32::INFINITY; 3],
-        lo_id: [ObjectId::NONE; 3],
-        hi_id: [ObjectId::NONE; 3],
+        c: [[f32::INFINITY, f32::NEG_INFINITY]; 3],
+        id: [[ObjectId::NONE; 2]; 3],
     };
 }
 
@@ -157,7 +155,8 @@ fn slabs<const P: usize>(
 ) -> (Slabs, Vec<u16, P>) {
     let mut sl = Slabs::EMPTY;
     let e = [eye.x, eye.y, eye.z];
-    let mut chosen: [Option<usize>; 6] = [None; 6];
+    // the chosen plane of [axis][side], side 0 above the eye, 1 below
+    let mut chosen: [[Option<usize>; 2]; 3] = [[None; 2]; 3];
     for (i, p) in planes.iter().enumerate() {
         let Some((k, c)) = axis_plane(p) else {
             continue;
@@ -165,32 +164,29 @@ fn slabs<const P: usize>(
         if !is_opaque(materials, p.material) {
             continue;
         }
-        let (Some(&ek), Some(lo), Some(hi)) = (e.get(k), sl.lo.get_mut(k), sl.hi.get_mut(k)) else {
+        let (Some(&ek), Some(cs), Some(ch)) = (e.get(k), sl.c.get_mut(k), chosen.get_mut(k)) else {
             continue;
         };
+        let [hi, lo] = cs;
+        let [ch_hi, ch_lo] = ch;
         if c > ek && c < *hi {
             *hi = c;
-            if let Some(x) = chosen.get_mut(3 + k) {
-                *x = Some(i);
-            }
+            *ch_hi = Some(i);
         } else if c < ek && c > *lo {
             *lo = c;
-            if let Some(x) = chosen.get_mut(k) {
-                *x = Some(i);
-            }
+            *ch_lo = Some(i);
         }
     }
-    for k in 0..3 {
-        if let (Some(Some(i)), Some(id)) = (chosen.get(k), sl.lo_id.get_mut(k)) {
-            *id = ObjectId::plane(*i);
-        }
-        if let (Some(Some(i)), Some(id)) = (chosen.get(3 + k), sl.hi_id.get_mut(k)) {
-            *id = ObjectId::plane(*i);
+    for (ids, ch) in sl.id.iter_mut().zip(&chosen) {
+        for (id, c) in ids.iter_mut().zip(ch) {
+            if let Some(i) = c {
+                *id = ObjectId::plane(*i);
+            }
         }
     }
     let mut other: Vec<u16, P> = Vec::new();
     for i in 0..planes.len() {
-        if !chosen.contains(&Some(i)) {
+        if !chosen.iter().flatten().any(|&c| c == Some(i)) {
             let _ = other.push(i as u16);
         }
     }
@@ -418,12 +414,11 @@ mod tests {
         assert_eq!(a.lights.as_slice(), &[0]);
         // the six walls are the slabs: floor/ceiling (y), back/front (z),
         // left/right (x); no plane is left to test one by one
-        assert_eq!(a.slabs.lo, [0.0, 0.0, 0.0]);
-        assert_eq!(a.slabs.hi, [1.0, 1.0, 1.0]);
-        assert_eq!(a.slabs.lo_id[1], ObjectId::plane(0));
-        assert_eq!(a.slabs.hi_id[1], ObjectId::plane(1));
-        assert_eq!(a.slabs.lo_id[0], ObjectId::plane(4));
-        assert_eq!(a.slabs.hi_id[2], ObjectId::plane(3));
+        assert_eq!(a.slabs.c, [[1.0, 0.0]; 3]);
+        // [axis][0]: above the eye, [axis][1]: below
+        assert_eq!(a.slabs.id[1], [ObjectId::plane(1), ObjectId::plane(0)]);
+        assert_eq!(a.slabs.id[0], [ObjectId::plane(5), ObjectId::plane(4)]);
+        assert_eq!(a.slabs.id[2], [ObjectId::plane(3), ObjectId::plane(2)]);
         assert!(a.other_planes.is_empty());
     }
 

@@ -407,21 +407,24 @@ pub struct SceneView<'a> {
 }
 
 /// Records the hit of the slab plane along one axis (origin and direction
-/// components `o`, `d`) if it is nearer than `t_best`: the plane `hi` ahead
-/// if the ray moves up the axis, else `lo`. The ray parameter is bit for bit
-/// [`Plane::intersect`]'s (see [`Slabs`]). The side is the sign bit of `d`:
-/// for `d = ±0` either plane gives t = ±∞, never a hit, as in
-/// [`Plane::intersect`].
+/// components `o`, `d`; the axis' planes `c` and `ids` as in [`Slabs`]) if it
+/// is nearer than `t_best`. The ray parameter is bit for bit
+/// [`Plane::intersect`]'s. The side is the sign bit of `d`, used as an index
+/// (a load, not a branch the processor would have to guess): for `d = ±0`
+/// either plane gives t = ±∞, never a hit, as in [`Plane::intersect`].
 #[inline(always)]
 fn slab_axis(
     o: f32,
     d: f32,
-    lo: (f32, ObjectId),
-    hi: (f32, ObjectId),
+    c: &[f32; 2],
+    ids: &[ObjectId; 2],
     t_best: &mut f32,
     best: &mut ObjectId,
 ) {
-    let (c, id) = if d.is_sign_negative() { lo } else { hi };
+    let side = (d.to_bits() >> 31) as usize;
+    let (Some(&c), Some(&id)) = (c.get(side), ids.get(side)) else {
+        return;
+    };
     let t = (c - o) / d;
     // t_best > 0: +∞ or an earlier hit
     if math::positive_below_positive(t, *t_best) {
@@ -446,13 +449,11 @@ fn nearest<'p>(
     let mut best = ObjectId::NONE;
     if let Some(sl) = slabs {
         let (o, d) = (ray.origin, ray.dir);
-        let [lx, ly, lz] = sl.lo;
-        let [hx, hy, hz] = sl.hi;
-        let [ilx, ily, ilz] = sl.lo_id;
-        let [ihx, ihy, ihz] = sl.hi_id;
-        slab_axis(o.x, d.x, (lx, ilx), (hx, ihx), &mut t_best, &mut best);
-        slab_axis(o.y, d.y, (ly, ily), (hy, ihy), &mut t_best, &mut best);
-        slab_axis(o.z, d.z, (lz, ilz), (hz, ihz), &mut t_best, &mut best);
+        let [cx, cy, cz] = &sl.c;
+        let [ix, iy, iz] = &sl.id;
+        slab_axis(o.x, d.x, cx, ix, &mut t_best, &mut best);
+        slab_axis(o.y, d.y, cy, iy, &mut t_best, &mut best);
+        slab_axis(o.z, d.z, cz, iz, &mut t_best, &mut best);
     }
     for (i, p) in planes {
         let id = ObjectId::plane(i);
