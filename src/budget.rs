@@ -170,25 +170,37 @@ impl TileAccum {
         }
     }
 
-    /// Adds samples `count[i] .. count[i] + k` to pixel `i`.
-    #[inline]
-    fn add(&mut self, r: &Renderer<'_>, tile: &Tile, i: usize, k: u32, stats: &mut Stats) {
+    /// Adds samples `count[i] .. count[i] + k` to every pixel `i` of
+    /// `pixels`, each pixel's in turn. One call for a whole round of the
+    /// tile: what the integrator loads once per call (the scene's arrays,
+    /// the options) is loaded once per round, not once per sample.
+    #[inline(never)]
+    fn add(
+        &mut self,
+        r: &Renderer<'_>,
+        tile: &Tile,
+        pixels: core::ops::Range<usize>,
+        k: u32,
+        stats: &mut Stats,
+    ) {
         let w = tile.w.max(1);
-        let (x, y) = (tile.x + i as u32 % w, tile.y + i as u32 / w);
-        let (Some(sum), Some(l2), Some(n)) = (
-            self.sum.get_mut(i),
-            self.lum2.get_mut(i),
-            self.count.get_mut(i),
-        ) else {
-            return;
-        };
-        let pixel = r.pixel_sampler(x, y);
-        for _ in 0..k {
-            let c = r.sample_in(&pixel, x, y, *n, stats);
-            let l = c.luminance();
-            *sum += c;
-            *l2 += l * l;
-            *n += 1;
+        for i in pixels {
+            let (x, y) = (tile.x + i as u32 % w, tile.y + i as u32 / w);
+            let (Some(sum), Some(l2), Some(n)) = (
+                self.sum.get_mut(i),
+                self.lum2.get_mut(i),
+                self.count.get_mut(i),
+            ) else {
+                return;
+            };
+            let pixel = r.pixel_sampler(x, y);
+            for _ in 0..k {
+                let c = r.sample_in(&pixel, x, y, *n, stats);
+                let l = c.luminance();
+                *sum += c;
+                *l2 += l * l;
+                *n += 1;
+            }
         }
     }
 
@@ -276,9 +288,7 @@ impl Renderer<'_> {
     /// Pass 1 for `tile`: sample 0 of every pixel into `acc` (reset first).
     pub fn preview_tile(&self, tile: &Tile, acc: &mut TileAccum, stats: &mut Stats) {
         acc.reset(tile.len());
-        for i in 0..acc.len {
-            acc.add(self, tile, i, 1, stats);
-        }
+        acc.add(self, tile, 0..acc.len, 1, stats);
     }
 
     /// Pass 2 for `tile`: spends `extra` more samples on the pixels of `acc`
@@ -314,12 +324,10 @@ impl Renderer<'_> {
                 return spent;
             }
             let before = spent;
-            for i in 0..n {
-                if spent < extra {
-                    acc.add(self, tile, i, 1, stats);
-                    spent += 1;
-                }
-            }
+            // the first `extra - spent` pixels when fewer than all are left
+            let take = (extra - spent).min(n as u64) as usize;
+            acc.add(self, tile, 0..take, 1, stats);
+            spent += take as u64;
             // at most n <= BATCH samples since the look above
             since_check = spent - before;
         }
@@ -367,7 +375,7 @@ impl Renderer<'_> {
                         since_check = 0;
                     }
                     let chunk = k.min((BATCH - since_check) as u32);
-                    acc.add(self, tile, i, chunk, stats);
+                    acc.add(self, tile, i..i + 1, chunk, stats);
                     spent += u64::from(chunk);
                     since_check += u64::from(chunk);
                     k -= chunk;
