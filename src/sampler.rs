@@ -109,6 +109,19 @@ pub fn sobol_2d_seeded(index: u32, seeds: &[u32; 3]) -> [f32; 2] {
     ]
 }
 
+/// [`sobol_2d_seeded`] without the index shuffle: point `index` of the
+/// Owen-scrambled sequence in its own order (`seeds[0]` unused). One pair
+/// of a pixel's stream may use its points unshuffled: the other pairs'
+/// shuffles already decorrelate them from it.
+#[inline(always)]
+pub fn sobol_2d_unshuffled(index: u32, seeds: &[u32; 3]) -> [f32; 2] {
+    let [_, s1, s2] = *seeds;
+    [
+        to_unit(lk_permute(index, s1).reverse_bits()),
+        to_unit(lk_permute(sobol2_unreversed(index), s2).reverse_bits()),
+    ]
+}
+
 /// A 32-bit integer hash with good avalanche (Chris Wellons' `lowbias32`):
 /// two multiplies and three shift-xors.
 #[inline(always)]
@@ -196,10 +209,13 @@ pub struct SampleStream<'p> {
 impl SampleStream<'_> {
     /// Stratified 2-D point for dimension pair `pair` (0: pixel position,
     /// 1: first-bounce direction, 2: first light sample; higher pairs are
-    /// further independent Owen-scrambled Sobol sequences).
+    /// further independent Owen-scrambled Sobol sequences). Pair 0 takes the
+    /// points in sequence order ([`sobol_2d_unshuffled`]); every other pair
+    /// shuffles them.
     #[inline(always)]
     pub fn stratified_2d(&self, pair: u32) -> [f32; 2] {
         match self.pixel.pairs.get(pair as usize) {
+            Some(seeds) if pair == 0 => sobol_2d_unshuffled(self.index, seeds),
             Some(seeds) => sobol_2d_seeded(self.index, seeds),
             None => sobol_2d(self.index, pair_key(self.pixel.key, pair)),
         }
@@ -241,7 +257,11 @@ mod tests {
                 let side = 1u32 << (k / 2);
                 let mut cells = [0u8; 64];
                 for i in 0..n {
-                    let [x, y] = sobol_2d(i, key);
+                    let [x, y] = if key == 99 {
+                        sobol_2d_unshuffled(i, &sobol_seeds(key))
+                    } else {
+                        sobol_2d(i, key)
+                    };
                     assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y));
                     let c = (y * side as f32) as u32 * side + (x * side as f32) as u32;
                     cells[c as usize] += 1;
@@ -326,9 +346,15 @@ mod tests {
         for i in [0u32, 1, 7, 1000] {
             let a = px.stream(i);
             // every pair, cached or not, is the Sobol sequence of its key
+            // (pair 0 unshuffled)
             for p in 0..5 {
                 let key = pair_key(pixel_key(3, 10, 20), p);
-                assert_eq!(a.stratified_2d(p), sobol_2d(i, key));
+                let want = if p == 0 {
+                    sobol_2d_unshuffled(i, &sobol_seeds(key))
+                } else {
+                    sobol_2d(i, key)
+                };
+                assert_eq!(a.stratified_2d(p), want);
             }
         }
     }
