@@ -30,7 +30,10 @@
 //!   axis: per axis and direction one plane is tested (one subtraction and
 //!   one division), whatever the number of walls ([`Slabs`]).
 //! * With a single reachable light, the light itself never blocks a shadow
-//!   ray (shadow rays aim at it): it leaves the occluder list.
+//!   ray (shadow rays aim at it): it leaves the occluder list. If moreover
+//!   no occluder reaches into the light's ball, a shadow ray may be tested up
+//!   to any point of its chord through the light (the chord's midpoint needs
+//!   no square root) instead of exactly to the light's surface.
 
 use crate::camera::CameraSpec;
 use crate::geometry::{ObjectId, Plane, Sphere, Vec3};
@@ -73,6 +76,10 @@ pub struct Analysis<const S: usize, const P: usize> {
     pub listed_view: Vec<Listed, S>,
     /// The spheres of `shadow_spheres`, with their ids.
     pub listed_shadow: Vec<Listed, S>,
+    /// There is one reachable light and no object of the occluder lists
+    /// reaches into its ball: nothing lies between its surface and any point
+    /// inside it.
+    pub light_clear: bool,
 }
 
 /// A sphere as the ray queries test it: a copy next to its id, so that a
@@ -345,6 +352,22 @@ pub fn analyse<const S: usize, const P: usize>(
             )
         });
 
+    let light_clear = match (lights.as_slice(), reachable().next()) {
+        ([_], Some(l)) => {
+            shadow_spheres
+                .iter()
+                .filter_map(|&i| spheres.get(i as usize))
+                .all(|q| sphere_outside(q, l))
+                && shadow_planes
+                    .iter()
+                    .filter_map(|&i| planes.get(i as usize))
+                    .all(|p| {
+                        let (d, tol) = plane_distance(p, l.center);
+                        math::abs(d) > l.radius * (1.0 + MARGIN) + tol
+                    })
+        }
+        _ => false,
+    };
     let (slabs, other_planes) = slabs(planes, materials, eye);
     let all: Vec<u16, S> = (0..spheres.len()).map(|i| i as u16).collect();
     let listed_all = listed(spheres, &all);
@@ -365,6 +388,7 @@ pub fn analyse<const S: usize, const P: usize>(
         listed_all,
         listed_view,
         listed_shadow,
+        light_clear,
     }
 }
 
@@ -411,6 +435,8 @@ mod tests {
         assert!(a.shadow_planes.is_empty(), "{:?}", a.shadow_planes);
         // the matte and chrome spheres; the only light cannot block itself
         assert_eq!(a.shadow_spheres.as_slice(), &[1, 2]);
+        // and neither reaches into the light
+        assert!(a.light_clear);
         assert_eq!(a.lights.as_slice(), &[0]);
         // the six walls are the slabs: floor/ceiling (y), back/front (z),
         // left/right (x); no plane is left to test one by one
@@ -448,6 +474,8 @@ mod tests {
         // cannot block itself)
         assert_eq!(a.shadow_spheres.as_slice(), &[0, 1, 2, 3, 5, 6, 7]);
         assert_eq!(a.lights.as_slice(), &[8]);
+        // the light pokes through the ceiling sphere, an occluder
+        assert!(!a.light_clear);
     }
 
     #[test]

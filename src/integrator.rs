@@ -422,7 +422,9 @@ fn trace<const SPEC: bool, const MANY: bool>(
         bsdf_pdf: 0.0,
         weight_sum: 0.0,
     };
-    stats.paths += 1;
+    // counted here and added to `stats` once per path (u64 additions are
+    // four instructions each on a 32-bit core)
+    let (mut bounces, mut shadows) = (0u32, 0u32);
     let mut depth = 0u32;
     loop {
         let found = if depth == 0 && opts.skip.view_culling {
@@ -487,7 +489,17 @@ fn trace<const SPEC: bool, const MANY: bool>(
                         let (choice, sum) = ctx.choose_light::<MANY>(hit.point, n, stream);
                         weight_sum = sum;
                         if let Some(c) = choice {
-                            l += direct::<MANY>(scene, &hit, n, albedo, thr, &c, u, opts, stats);
+                            l += direct::<MANY>(
+                                scene,
+                                &hit,
+                                n,
+                                albedo,
+                                thr,
+                                &c,
+                                u,
+                                opts,
+                                &mut shadows,
+                            );
                         }
                     } else if let Some(one) = &ctx.one {
                         weight_sum = 1.0;
@@ -510,7 +522,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
                                 one.le,
                                 u,
                                 opts,
-                                stats,
+                                &mut shadows,
                             );
                         }
                     }
@@ -567,8 +579,11 @@ fn trace<const SPEC: bool, const MANY: bool>(
             break;
         }
         from = hit.object;
-        stats.bounce_rays += 1;
+        bounces += 1;
     }
+    stats.paths += 1;
+    stats.bounce_rays += u64::from(bounces);
+    stats.shadow_rays += u64::from(shadows);
     l
 }
 
@@ -589,7 +604,7 @@ fn direct<const MANY: bool>(
     c: &LightChoice,
     u: [f32; 2],
     opts: &Options,
-    stats: &mut Stats,
+    shadows: &mut u32,
 ) -> Color {
     let Some(s) = scene.spheres.get(c.sphere) else {
         return Color::ZERO;
@@ -607,7 +622,7 @@ fn direct<const MANY: bool>(
         *le,
         u,
         opts,
-        stats,
+        shadows,
     )
 }
 
@@ -625,19 +640,21 @@ fn nee<const MANY: bool>(
     le: Color,
     u: [f32; 2],
     opts: &Options,
-    stats: &mut Stats,
+    shadows: &mut u32,
 ) -> Color {
-    let ls = light::sample_cone_toward(c.to_c, c.d2, r2, u[0], u[1], opts.fast_math);
+    // the occluder lists hold what can block a reachable light: shadow rays
+    // toward the others (sampled when that skip is off) test everything
+    let lists = opts.skip.shadow_occluders && opts.skip.unreachable_lights;
+    let surface = !(lists && scene.light_clear);
+    let ls = light::sample_cone_toward(c.to_c, c.d2, r2, u[0], u[1], opts.fast_math, surface);
     let cos = n.dot(ls.dir);
     if !(cos > 0.0) {
         return Color::ZERO;
     }
-    stats.shadow_rays += 1;
+    *shadows += 1;
     let shadow = hit.spawn_on(n, ls.dir);
     let target = ObjectId::sphere(c.sphere);
-    // the occluder lists hold what can block a reachable light: shadow rays
-    // toward the others (sampled when that skip is off) test everything
-    let blocked = if opts.skip.shadow_occluders && opts.skip.unreachable_lights {
+    let blocked = if lists {
         scene.occluded(&shadow, ls.dist, hit.object, target)
     } else {
         scene.occluded_by_any(&shadow, ls.dist, hit.object, target)

@@ -55,7 +55,7 @@ pub fn sample_cone(
     if !(d2 > r2) {
         return None;
     }
-    let s = sample_cone_toward(to_c, d2, r2, u1, u2, fast);
+    let s = sample_cone_toward(to_c, d2, r2, u1, u2, fast, true);
     Some(ConeSample {
         dir: s.dir,
         dist: s.dist,
@@ -68,7 +68,8 @@ pub fn sample_cone(
 pub struct ConeDir {
     /// Unit direction from the shading point.
     pub dir: Vec3,
-    /// Distance from the shading point to the light's surface along `dir`.
+    /// Distance from the shading point to the light's surface along `dir`
+    /// (or to the chord's midpoint, see [`sample_cone_toward`]).
     pub dist: f32,
     /// `1 − cos θ_max` of the cone ([`one_minus_cos_max`]): the pdf is
     /// `1 / (2π omc_max)`.
@@ -76,7 +77,11 @@ pub struct ConeDir {
 }
 
 /// [`sample_cone`] from the vector `to_c` to the centre and its squared
-/// length `d2` (> `r2`), which the caller has already computed.
+/// length `d2` (> `r2`), which the caller has already computed. With
+/// `surface` false, `dist` is the midpoint of the direction's chord through
+/// the ball, `d cos θ`, instead of the near intersection with the surface
+/// (one square root less): as far as a shadow ray must be tested when no
+/// occluder reaches into the light.
 ///
 /// A uniform point `(x, y)` of the unit disk ([`concentric_disk`]) with
 /// `ρ² = x² + y²` gives `1 − cos θ = ρ² (1 − cos θ_max)`, uniform in the
@@ -85,7 +90,15 @@ pub struct ConeDir {
 /// with no division by ρ. `1 − cos θ` and `sin²θ = (1 − cos θ)(1 + cos θ)`
 /// keep full relative precision for tiny cones (r/d down to 1e-6 and below).
 #[inline(always)]
-pub fn sample_cone_toward(to_c: Vec3, d2: f32, r2: f32, u1: f32, u2: f32, fast: bool) -> ConeDir {
+pub fn sample_cone_toward(
+    to_c: Vec3,
+    d2: f32,
+    r2: f32,
+    u1: f32,
+    u2: f32,
+    fast: bool,
+    surface: bool,
+) -> ConeDir {
     let s2 = r2 / d2;
     let omc_max = s2 / (1.0 + math::sqrt(1.0 - s2));
     let (x, y, rho2) = concentric_disk(u1, u2, fast);
@@ -100,7 +113,11 @@ pub fn sample_cone_toward(to_c: Vec3, d2: f32, r2: f32, u1: f32, u2: f32, fast: 
     // near intersection along dir: d cos θ − √(r² − d² sin²θ)
     // (never negative: from a point within rounding of the surface the
     // difference may round below 0)
-    let dist = math::max(d * (cos_t - math::safe_sqrt(s2 - sin2_t)), 0.0);
+    let dist = if surface {
+        math::max(d * (cos_t - math::safe_sqrt(s2 - sin2_t)), 0.0)
+    } else {
+        d * cos_t
+    };
     ConeDir { dir, dist, omc_max }
 }
 

@@ -361,6 +361,7 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             tested: &a.listed_all,
             tested_primary: a.listed_view.get(..visible).unwrap_or(&a.listed_view),
             tested_shadow: &a.listed_shadow,
+            light_clear: a.light_clear,
             background: self.background,
             closed: a.closed,
             specular: a.specular,
@@ -398,6 +399,9 @@ pub struct SceneView<'a> {
     pub tested_primary: &'a [Listed],
     /// The spheres that shadow rays test (`shadow_spheres`).
     pub tested_shadow: &'a [Listed],
+    /// One light, and no occluder of the lists reaches into it
+    /// ([`crate::analysis::Analysis::light_clear`]).
+    pub light_clear: bool,
     /// Background radiance.
     pub background: Color,
     /// No ray can escape (the background is never seen).
