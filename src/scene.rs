@@ -362,6 +362,11 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             tested_primary: a.listed_view.get(..visible).unwrap_or(&a.listed_view),
             tested_shadow: &a.listed_shadow,
             light_clear: a.light_clear,
+            shadow_lights: a.listed_shadow.iter().any(|l| {
+                a.emitters
+                    .iter()
+                    .any(|&e| l.id == ObjectId::sphere(e as usize))
+            }),
             background: self.background,
             closed: a.closed,
             specular: a.specular,
@@ -399,6 +404,9 @@ pub struct SceneView<'a> {
     pub tested_primary: &'a [Listed],
     /// The spheres that shadow rays test (`shadow_spheres`).
     pub tested_shadow: &'a [Listed],
+    /// Some sphere of `tested_shadow` is an emitter (a shadow ray's target
+    /// must then be skipped by id).
+    pub shadow_lights: bool,
     /// One light, and no occluder of the lists reaches into it
     /// ([`crate::analysis::Analysis::light_clear`]).
     pub light_clear: bool,
@@ -473,18 +481,13 @@ fn nearest<'p>(
     // when spheres were tested first: accept t ≤ t_best, i.e. t < the next
     // float above it
     let mut t_max = math::next_up_positive(t_best);
-    let mut hit_sphere: Option<&Listed> = None;
-    for l in spheres {
-        let t = if l.id == from {
-            l.sphere.intersect_from_surface(ray, t_max)
-        } else {
-            l.sphere.intersect(ray, t_max)
-        };
-        if let Some(t) = t {
-            t_max = t;
-            hit_sphere = Some(l);
-        }
-    }
+    // two copies of the sphere loop: rays that do not leave a sphere (from
+    // the camera or a wall) compare no ids
+    let hit_sphere = if from.as_sphere().is_some() {
+        nearest_sphere::<true>(spheres, ray, &mut t_max, from)
+    } else {
+        nearest_sphere::<false>(spheres, ray, &mut t_max, from)
+    };
     if let Some(l) = hit_sphere {
         Some(l.sphere.hit(ray, t_max, l.id))
     } else if let Some(i) = best.as_plane() {
@@ -492,6 +495,30 @@ fn nearest<'p>(
     } else {
         None
     }
+}
+
+/// The nearest of `spheres` that `ray` hits before `t_max` (which becomes
+/// its distance); `from` (if `FROM`) is tested from its surface.
+#[inline(always)]
+fn nearest_sphere<'l, const FROM: bool>(
+    spheres: &'l [Listed],
+    ray: &Ray,
+    t_max: &mut f32,
+    from: ObjectId,
+) -> Option<&'l Listed> {
+    let mut hit = None;
+    for l in spheres {
+        let t = if FROM && l.id == from {
+            l.sphere.intersect_from_surface(ray, *t_max)
+        } else {
+            l.sphere.intersect(ray, *t_max)
+        };
+        if let Some(t) = t {
+            *t_max = t;
+            hit = Some(l);
+        }
+    }
+    hit
 }
 
 /// The objects of `all` named by the index list `ids`.
@@ -573,6 +600,7 @@ impl SceneView<'_> {
             t_max,
             from,
             target,
+            self.shadow_lights,
         )
     }
 
@@ -586,6 +614,7 @@ impl SceneView<'_> {
             t_max,
             from,
             target,
+            true,
         )
     }
 }
@@ -600,22 +629,47 @@ fn blocked<'p>(
     t_max: f32,
     from: ObjectId,
     target: ObjectId,
+    check_target: bool,
+) -> bool {
+    // copies of the sphere loop, so that the common cases (no light in the
+    // list; leaving a wall) compare fewer ids
+    let hit = match (from.as_sphere().is_some(), check_target) {
+        (false, false) => spheres_block::<false, false>(spheres, ray, t_max, from, target),
+        (true, false) => spheres_block::<true, false>(spheres, ray, t_max, from, target),
+        _ => spheres_block::<true, true>(spheres, ray, t_max, from, target),
+    };
+    if hit {
+        return true;
+    }
+    for (i, p) in planes {
+        if ObjectId::plane(i) != from && p.intersect(ray, t_max).is_some() {
+            return true;
+        }
+    }
+    false
+}
+
+/// Whether a sphere of `spheres` but `target` (if `TARGET`) blocks `ray`
+/// before `t_max`; `from` is tested from its surface (if `FROM`: otherwise
+/// the ray does not leave a sphere).
+#[inline(always)]
+fn spheres_block<const FROM: bool, const TARGET: bool>(
+    spheres: &[Listed],
+    ray: &Ray,
+    t_max: f32,
+    from: ObjectId,
+    target: ObjectId,
 ) -> bool {
     for l in spheres {
-        if l.id == target {
+        if TARGET && l.id == target {
             continue;
         }
-        let t = if l.id == from {
+        let t = if FROM && l.id == from {
             l.sphere.intersect_from_surface(ray, t_max)
         } else {
             l.sphere.intersect(ray, t_max)
         };
         if t.is_some() {
-            return true;
-        }
-    }
-    for (i, p) in planes {
-        if ObjectId::plane(i) != from && p.intersect(ray, t_max).is_some() {
             return true;
         }
     }
