@@ -185,6 +185,10 @@ struct PrevVertex {
     bsdf_pdf: f32,
     /// Sum of light-selection weights at that vertex.
     weight_sum: f32,
+    /// With one light: its 1 − cos θ_max seen from that vertex, as
+    /// next-event estimation computed it (0: it could not be sampled there).
+    /// The point and normal are then never read again.
+    light_omc: f32,
 }
 
 /// The light chosen for next-event estimation at a vertex.
@@ -336,6 +340,16 @@ impl Ctx<'_, '_> {
     /// produced a direction toward light sphere `i` (selection included).
     #[inline]
     fn light_pdf<const MANY: bool>(&self, prev: &PrevVertex, i: usize) -> f32 {
+        if !MANY {
+            // bit for bit the pdf from the point and normal: the same
+            // one_minus_cos_max of the same operands
+            return match &self.one {
+                Some(one) if one.sphere == i && prev.light_omc > 0.0 => {
+                    1.0 / (math::TWO_PI * prev.light_omc)
+                }
+                _ => 0.0,
+            };
+        }
         if !self.lights.contains(&(i as u16)) {
             return 0.0;
         }
@@ -421,6 +435,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
         normal: Vec3::ZERO,
         bsdf_pdf: 0.0,
         weight_sum: 0.0,
+        light_omc: 0.0,
     };
     // counted here and added to `stats` once per path (u64 additions are
     // four instructions each on a 32-bit core)
@@ -477,6 +492,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
                     -hit.normal
                 };
                 let mut weight_sum = 0.0;
+                let mut light_omc = 0.0;
                 if opts.strategy != Strategy::BsdfOnly && !ctx.lights.is_empty() {
                     // drawn before the light is chosen, so that skipping a
                     // light below the horizon never shifts the random numbers
@@ -523,6 +539,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
                                 u,
                                 opts,
                                 &mut shadows,
+                                &mut light_omc,
                             );
                         }
                     }
@@ -538,6 +555,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
                     normal: n,
                     bsdf_pdf: cos * math::INV_PI,
                     weight_sum,
+                    light_omc,
                 };
                 // f · cos / pdf = (albedo/π) · cos / (cos/π) = albedo, exactly
                 thr *= albedo;
@@ -623,6 +641,7 @@ fn direct<const MANY: bool>(
         u,
         opts,
         shadows,
+        &mut 0.0,
     )
 }
 
@@ -641,12 +660,14 @@ fn nee<const MANY: bool>(
     u: [f32; 2],
     opts: &Options,
     shadows: &mut u32,
+    omc_out: &mut f32,
 ) -> Color {
     // the occluder lists hold what can block a reachable light: shadow rays
     // toward the others (sampled when that skip is off) test everything
     let lists = opts.skip.shadow_occluders && opts.skip.unreachable_lights;
     let surface = !(lists && scene.light_clear);
     let ls = light::sample_cone_toward(c.to_c, c.d2, r2, u[0], u[1], opts.fast_math, surface);
+    *omc_out = ls.omc_max;
     let cos = n.dot(ls.dir);
     if !(cos > 0.0) {
         return Color::ZERO;
