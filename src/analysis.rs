@@ -249,7 +249,8 @@ fn planes_enclose(planes: &[Plane], materials: &[Material], side: &dyn Fn(&Plane
     any_pair
 }
 
-#[cfg(test)]
+// the shared scenes need the parser and both specular materials
+#[cfg(all(test, feature = "parser", feature = "mirror", feature = "glass"))]
 mod tests {
     use crate::parse::parse;
 
