@@ -318,10 +318,13 @@ pub fn radiance(
         lights,
         horizon: skip.horizon,
     };
-    if !skip.specialize {
-        return trace::<true, true>(&ctx, ray, stream, opts, stats);
-    }
-    match (scene.specular, lights.len() > 1) {
+    // without the skip, the general variant (one copy of it in the binary)
+    let class = if skip.specialize {
+        (scene.specular, lights.len() > 1)
+    } else {
+        (true, true)
+    };
+    match class {
         (false, false) => trace::<false, false>(&ctx, ray, stream, opts, stats),
         (false, true) => trace::<false, true>(&ctx, ray, stream, opts, stats),
         (true, false) => trace::<true, false>(&ctx, ray, stream, opts, stats),
