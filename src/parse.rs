@@ -85,7 +85,12 @@ impl core::fmt::Display for ParseError {
             }
             ParseErrorKind::UnknownMaterial => f.write_str("unknown material (define it before use)"),
             ParseErrorKind::RedefinedMaterial => f.write_str("material defined twice"),
-            ParseErrorKind::Repeated(what) => write!(f, "second {what} statement"),
+            ParseErrorKind::Repeated(what) => {
+                // pieces, not `{what}` (see `SceneError`'s `Display`)
+                f.write_str("second ")?;
+                f.write_str(what)?;
+                f.write_str(" statement")
+            }
             ParseErrorKind::MissingCamera => f.write_str("no camera statement in the scene"),
             ParseErrorKind::Scene(e) => write!(f, "{e}"),
         }
