@@ -202,6 +202,7 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
          /// Image height in pixels.\n\
          pub const HEIGHT: usize = {height};\n\
          /// Samples per pixel.\n\
+         #[allow(dead_code)] // unused with a deadline budget\n\
          pub const SPP: u32 = {spp};\n\
          /// Render seed.\n\
          pub const SEED: u64 = {seed};\n\

@@ -205,12 +205,12 @@ if arm-none-eabi-nm "$ELF" | grep -E ' (__aeabi_(d[a-z0-9]+|(f|i|ui|l|ul)2d)|__(
     ok=0
 fi
 # the render path uses the FPU square root, not libm's software one
-arm-none-eabi-objdump -d --no-show-raw-insn "$ELF" >"$OUT/firmware.dis"
-render_fn=$(awk '/^[0-9a-f]+ <.*accumulate_tile.*>:$/ { f = 1; next } /^[0-9a-f]+ <.*>:$/ { f = 0 } f' "$OUT/firmware.dis")
-if [ -z "$render_fn" ]; then
-    echo "note: accumulate_tile was inlined; checking the whole firmware for vsqrt.f32"
-    render_fn=$(grep -v 'sqrtf' "$OUT/firmware.dis")
-fi
+arm-none-eabi-objdump -d -C --no-show-raw-insn "$ELF" >"$OUT/firmware.dis"
+# the render code: the core's sampling, integrator, ray queries and budget
+# executor (whichever of them the compiler kept as functions)
+render_re='<micropt::(integrator|material|light|render|budget|scene::SceneView|geometry)[^>]*>:$'
+render_fn=$(awk -v re="$render_re" '/^[0-9a-f]+ <.*>:$/ { f = ($0 ~ re); next } f' "$OUT/firmware.dis")
+[ -n "$render_fn" ] || fail "no render function of the core found in the disassembly"
 grep -q 'vsqrt.f32' <<<"$render_fn" || { echo "error: no vsqrt.f32 in the render code" >&2; ok=0; }
 if grep -E 'bl.*<.*sqrtf.*>' <<<"$render_fn"; then
     echo "error: the render code calls a software sqrtf" >&2
