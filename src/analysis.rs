@@ -193,9 +193,29 @@ pub fn analyse<const S: usize, const P: usize>(
         };
         let _ = order.push((key, i as u16));
     }
-    order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    let view_order = order.iter().map(|&(_, i)| i).collect();
-    let view_keys = order.iter().map(|&(k, _)| k).collect();
+    // insertion sort by descending key, then index (a total order, so the
+    // same result as any sort): core's sort and heapless' `collect` keep
+    // panic branches that the firmware's panic-never link rejects
+    let o = order.as_mut_slice();
+    for i in 1..o.len() {
+        for j in (1..=i).rev() {
+            let Some([a, b]) = o.get_mut(j - 1..=j) else {
+                break;
+            };
+            if a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)).is_lt() {
+                core::mem::swap(a, b);
+            } else {
+                break;
+            }
+        }
+    }
+    let mut view_order: Vec<u16, S> = Vec::new();
+    let mut view_keys: Vec<f32, S> = Vec::new();
+    for &(k, i) in order.iter() {
+        // as many entries as `order`, whose capacity is S too
+        let _ = view_order.push(i);
+        let _ = view_keys.push(k);
+    }
 
     let specular = spheres
         .iter()
@@ -249,7 +269,8 @@ fn planes_enclose(planes: &[Plane], materials: &[Material], side: &dyn Fn(&Plane
     any_pair
 }
 
-#[cfg(test)]
+// the shared scenes need the parser and both specular materials
+#[cfg(all(test, feature = "parser", feature = "mirror", feature = "glass"))]
 mod tests {
     use crate::parse::parse;
 

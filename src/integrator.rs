@@ -318,10 +318,13 @@ pub fn radiance(
         lights,
         horizon: skip.horizon,
     };
-    if !skip.specialize {
-        return trace::<true, true>(&ctx, ray, stream, opts, stats);
-    }
-    match (scene.specular, lights.len() > 1) {
+    // without the skip, the general variant (one copy of it in the binary)
+    let class = if skip.specialize {
+        (scene.specular, lights.len() > 1)
+    } else {
+        (true, true)
+    };
+    match class {
         (false, false) => trace::<false, false>(&ctx, ray, stream, opts, stats),
         (false, true) => trace::<false, true>(&ctx, ray, stream, opts, stats),
         (true, false) => trace::<true, false>(&ctx, ray, stream, opts, stats),
@@ -348,6 +351,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
     let mut specular = true;
     // undoes the (eta_i/eta_t)^2 radiance scaling for Russian roulette, so
     // that paths inside glass are not killed for a factor that cancels on exit
+    #[cfg_attr(not(feature = "glass"), allow(unused_mut))]
     let mut rr_scale = 1.0f32;
     let mut prev = PrevVertex {
         point: Vec3::ZERO,
@@ -437,11 +441,13 @@ fn trace<const SPEC: bool, const MANY: bool>(
                 specular = false;
                 ray = hit.spawn(dir);
             }
+            #[cfg(feature = "mirror")]
             Material::Mirror(tint) if SPEC => {
                 thr *= tint;
                 specular = true;
                 ray = hit.spawn(material::reflect(ray.dir, hit.normal));
             }
+            #[cfg(feature = "glass")]
             Material::Glass(ior) if SPEC => {
                 let (dir, f) =
                     material::sample_dielectric(ray.dir, hit.normal, ior, stream.next_f32());
