@@ -114,13 +114,83 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
             .map_err(|_| format!("MICROPT_FW_SEED={s:?} is not an unsigned integer"))?,
         None => 0,
     };
+    let parser = env::var_os("CARGO_FEATURE_PARSER").is_some();
+    if !parser && scene_rel != "scenes/cornell.scene" {
+        return Err(format!(
+            "MICROPT_FW_SCENE={scene_rel}: without the `parser` feature the firmware renders \
+             the Cornell box built in code; unset MICROPT_FW_SCENE or enable `parser`"
+        ));
+    }
+    let deadline_ms: Option<u64> =
+        match var("MICROPT_FW_BUDGET_MS") {
+            Some(s) => {
+                Some(s.trim().parse().ok().filter(|&n| n > 0).ok_or_else(|| {
+                    format!("MICROPT_FW_BUDGET_MS={s:?} is not a positive integer")
+                })?)
+            }
+            None => None,
+        };
+    let uniform = match var("MICROPT_FW_UNIFORM").as_deref().map(str::trim) {
+        None | Some("0") => false,
+        Some("1") => true,
+        Some(s) => return Err(format!("MICROPT_FW_UNIFORM={s:?} is not 0 or 1")),
+    };
+    const SKIPS: [&str; 6] = [
+        "shadow_occluders",
+        "view_culling",
+        "specialize",
+        "horizon",
+        "unreachable_lights",
+        "closed",
+    ];
+    let mut skip_on = [true; SKIPS.len()];
+    let skip_off = var("MICROPT_FW_SKIP_OFF").unwrap_or_default();
+    for name in skip_off.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+        if name == "all" {
+            skip_on = [false; SKIPS.len()];
+            continue;
+        }
+        let i = SKIPS.iter().position(|s| *s == name).ok_or_else(|| {
+            format!(
+                "MICROPT_FW_SKIP_OFF: unknown Skip field {name:?} (expected all or some of {})",
+                SKIPS.join(", ")
+            )
+        })?;
+        skip_on[i] = false;
+    }
+    let skip_fields: String = SKIPS
+        .iter()
+        .zip(skip_on)
+        .map(|(n, on)| format!("{n}: {on}, "))
+        .collect();
+    let skip_label = if skip_on.iter().all(|&on| on) {
+        "all".to_string()
+    } else if skip_on.iter().all(|&on| !on) {
+        "none".to_string()
+    } else {
+        let off: Vec<&str> = SKIPS
+            .iter()
+            .zip(skip_on)
+            .filter(|(_, on)| !on)
+            .map(|(n, _)| *n)
+            .collect();
+        format!("all but {}", off.join(","))
+    };
+    let budget = match deadline_ms {
+        Some(ms) => format!("micropt::Budget::Deadline({})", ms * 1000),
+        None => "micropt::Budget::Spp(SPP)".to_string(),
+    };
     let output = var("MICROPT_FW_OUT").unwrap_or_else(|| "firmware.rgb565".into());
     if output.contains('\0') {
         return Err("MICROPT_FW_OUT contains a NUL byte".into());
     }
-    let scene_name = Path::new(&scene_rel)
-        .file_name()
-        .map_or_else(|| scene_rel.clone(), |n| n.to_string_lossy().into_owned());
+    let scene_name = if parser {
+        Path::new(&scene_rel)
+            .file_name()
+            .map_or_else(|| scene_rel.clone(), |n| n.to_string_lossy().into_owned())
+    } else {
+        "cornell (built in code)".to_string()
+    };
 
     fs::write(out.join("firmware.scene"), &text).map_err(|e| e.to_string())?;
     let config = format!(
@@ -132,6 +202,7 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
          /// Image height in pixels.\n\
          pub const HEIGHT: usize = {height};\n\
          /// Samples per pixel.\n\
+         #[allow(dead_code)] // unused with a deadline budget\n\
          pub const SPP: u32 = {spp};\n\
          /// Render seed.\n\
          pub const SEED: u64 = {seed};\n\
@@ -142,11 +213,20 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
          /// Plane capacity of the scene.\n\
          pub const MAX_PLANES: usize = {};\n\
          /// Material capacity of the scene.\n\
-         pub const MAX_MATERIALS: usize = {};\n",
+         pub const MAX_MATERIALS: usize = {};\n\
+         /// The render budget.\n\
+         pub const BUDGET: micropt::Budget = {budget};\n\
+         /// Adaptive allocation (false: uniform).\n\
+         pub const ADAPTIVE: bool = {};\n\
+         /// The integrator's skip switches.\n\
+         pub const SKIP: micropt::Skip = micropt::Skip {{ {skip_fields}}};\n\
+         /// The skip switches, for the summary line.\n\
+         pub const SKIP_LABEL: &str = {skip_label:?};\n",
         output.escape_default(),
         spheres.max(1),
         planes.max(1),
         materials.max(1),
+        !uniform,
     );
     fs::write(out.join("firmware_config.rs"), config).map_err(|e| e.to_string())
 }

@@ -4,12 +4,20 @@
 #
 #  - installs qemu-system-arm, binutils-arm-none-eabi and gcc (apt) if missing,
 #    and builds the instruction-count plugin tools/qemu-icount;
-#  - clippy on the firmware examples;
+#  - clippy on the firmware examples (`-p micropt`: the workspace's other
+#    package has host examples that do not build for the board);
 #  - builds the release firmware, which links with panic-never: the link
 #    fails if any panic path is left (core included);
-#  - runs it in QEMU (netduinoplus2) for every scene in scenes/ and checks that
-#    its Rgb565 dump is byte-identical to the host CLI's render of the same
-#    scene, size, spp and seed;
+#  - runs it in QEMU (netduinoplus2, `-icount shift=0`: one virtual ns per
+#    instruction, so the SysTick clock and every count are deterministic) for
+#    every scene in scenes/ and checks that its Rgb565 dump is byte-identical
+#    to the host CLI's default render (adaptive budget) of the same scene,
+#    size, spp and seed;
+#  - builds the variant without the parser and the glass code
+#    (`--no-default-features --features firmware,mirror`: the Cornell box built
+#    in code), checks its image against the host's and records the flash it
+#    saves;
+#  - runs a deadline budget (SysTick clock) and checks that it stops in time;
 #  - for the default build (cornell.scene 64x64, 16 spp) checks the budgets:
 #    flash <= 64 KiB, renderer state (static RAM but the framebuffer)
 #    <= 16 KiB, stack high-water <= 4 KiB; no soft-double symbols; the FPU
@@ -26,6 +34,8 @@ if [ "${1:-}" = "--bless" ]; then BLESS=1; fi
 TARGET=thumbv7em-none-eabihf
 OUT=target/firmware
 ELF=target/$TARGET/release/examples/firmware
+QEMU=(qemu-system-arm -cpu cortex-m4 -machine netduinoplus2 -nographic
+    -semihosting-config enable=on,target=native -icount shift=0)
 mkdir -p "$OUT"
 
 fstep() { printf '\n---- firmware: %s (%ss)\n' "$*" "$SECONDS"; }
@@ -51,31 +61,47 @@ fstep "build the QEMU instruction-count plugin"
 gcc -O2 -Wall -Wextra -Werror -shared -fPIC -o "$OUT/libicount.so" tools/qemu-icount/icount.c
 
 fstep "clippy: firmware examples"
-cargo clippy --release --examples --features firmware --target "$TARGET" -- -D warnings
-cargo clippy --release --examples --features board-st7789 --target "$TARGET" -- -D warnings
+cargo clippy -p micropt --release --examples --features firmware --target "$TARGET" -- -D warnings
+cargo clippy -p micropt --release --examples --no-default-features --features firmware,mirror \
+    --target "$TARGET" -- -D warnings
+cargo clippy -p micropt --release --examples --features board-st7789 --target "$TARGET" -- -D warnings
+
+fstep "core without the parser, mirror and glass features: unit tests (a scene using a left-out material is refused)"
+cargo test -p micropt --lib --no-default-features --features parser
+cargo build -p micropt --release --no-default-features --target "$TARGET"
 
 fstep "host CLI (test profile: shares its build with cargo test; same bits as release)"
 cargo build --profile test -p micropt-host --bin micropt
 HOST=target/debug/micropt
 
-# run_scene SCENE: build the firmware for SCENE (its own resolution, 16 spp,
-# seed 0), run it in QEMU with the plugin, compare with the host render.
-run_scene() {
-    local scene=$1 name size
-    name=$(basename "$scene" .scene)
-    size=$(awk '$1 == "resolution" { print $2 "x" $3; exit }' "$scene")
-    size=${size:-64x64}
-    MICROPT_FW_SCENE=$scene MICROPT_FW_SIZE=$size MICROPT_FW_SPP=16 MICROPT_FW_SEED=0 \
-        MICROPT_FW_OUT="$OUT/$name.board.rgb565" \
-        cargo build --release --example firmware --features firmware --target "$TARGET"
-    rm -f "$OUT/$name.board.rgb565"
-    local status=0
-    timeout 300 qemu-system-arm -cpu cortex-m4 -machine netduinoplus2 -nographic \
-        -semihosting-config enable=on,target=native \
-        -plugin "$OUT/libicount.so" -d plugin -D "$OUT/$name.icount" \
+# qemu_run NAME: runs $ELF in QEMU with the plugin: $OUT/NAME.run (the
+# firmware's line), $OUT/NAME.icount (the counts); fails on a non-zero exit.
+qemu_run() {
+    local name=$1 status=0
+    timeout 300 "${QEMU[@]}" -plugin "$OUT/libicount.so" -d plugin -D "$OUT/$name.icount" \
         -kernel "$ELF" >"$OUT/$name.run" || status=$?
     cat "$OUT/$name.run" "$OUT/$name.icount"
     [ "$status" = 0 ] || fail "$name: the firmware exited with status $status"
+}
+
+# run_scene SCENE [NAME [CARGO FEATURE ARGS...]]: build the firmware for SCENE
+# (its own resolution, 16 spp, adaptive, seed 0), run it in QEMU, compare with
+# the host CLI's default render.
+run_scene() {
+    local scene=$1 name=${2:-} size
+    shift 2 || shift $#
+    local features=("$@")
+    [ "${#features[@]}" -gt 0 ] || features=(--features firmware)
+    [ -n "$name" ] || name=$(basename "$scene" .scene)
+    size=$(awk '$1 == "resolution" { print $2 "x" $3; exit }' "$scene")
+    size=${size:-64x64}
+    local env=(MICROPT_FW_SIZE="$size" MICROPT_FW_SPP=16 MICROPT_FW_SEED=0
+        MICROPT_FW_OUT="$OUT/$name.board.rgb565")
+    # without the parser the scene is the one built in code (cornell)
+    [ "${features[0]}" = --no-default-features ] || env+=(MICROPT_FW_SCENE="$scene")
+    env "${env[@]}" cargo build -p micropt --release --example firmware "${features[@]}" --target "$TARGET"
+    rm -f "$OUT/$name.board.rgb565"
+    qemu_run "$name"
     "$HOST" render "$scene" --size "$size" --spp 16 --seed 0 --exposure 1 \
         -o "$OUT/$name.host.rgb565"
     if ! cmp "$OUT/$name.board.rgb565" "$OUT/$name.host.rgb565"; then
@@ -84,16 +110,36 @@ run_scene() {
     echo "$name $size: board and host images are bit-identical"
 }
 
+section() { arm-none-eabi-size -A "$ELF" | awk -v s="$1" '$1 == s { print $2; f = 1 } END { if (!f) print 0 }'; }
+
 fstep "firmware on every scene, bit-identical with the host"
 for scene in scenes/*.scene; do
     [ "$scene" = scenes/cornell.scene ] && continue
     run_scene "$scene"
 done
+
+fstep "deadline budget: SysTick clock, 150 ms of QEMU virtual time (150 M instructions)"
+MICROPT_FW_BUDGET_MS=150 MICROPT_FW_OUT="$OUT/cornell-deadline.board.rgb565" \
+    cargo build -p micropt --release --example firmware --features firmware --target "$TARGET"
+qemu_run cornell-deadline
+total_us=$(sed -n 's/.*, total \([0-9]*\) us;.*/\1/p' "$OUT/cornell-deadline.run")
+[ -n "$total_us" ] || fail "could not read the deadline run's time"
+# stops within one batch (256 paths, ~1.5 ms here) plus a tile's drawing
+[ "$total_us" -le 152000 ] || fail "deadline 150 ms overrun: $total_us us"
+echo "deadline 150 ms: rendered in $total_us us of virtual time"
+
+fstep "firmware without the parser and glass code: cornell built in code"
+run_scene scenes/cornell.scene cornell-code --no-default-features --features firmware,mirror
+code_text=$(section .text)
+code_rodata=$(section .rodata)
+code_flash=$(($(section .vector_table) + code_text + code_rodata + $(section .data)))
+code_stack=$(sed -n 's/.*stack high-water \([0-9]*\) bytes.*/\1/p' "$OUT/cornell-code.run")
+
 # the default build last: its ELF is the one measured below
+fstep "default firmware (cornell.scene, parsed on the board)"
 run_scene scenes/cornell.scene
 
 fstep "budgets and guarantees of the default firmware (cornell.scene)"
-section() { arm-none-eabi-size -A "$ELF" | awk -v s="$1" '$1 == s { print $2; f = 1 } END { if (!f) print 0 }'; }
 vt=$(section .vector_table)
 text=$(section .text)
 rodata=$(section .rodata)
@@ -107,30 +153,44 @@ fb=$((16#$fb_hex))
 static_ram=$((data + bss + uninit))
 state=$((static_ram - fb))
 stack=$(sed -n 's/.*stack high-water \([0-9]*\) bytes.*/\1/p' "$OUT/cornell.run")
-paths=$(sed -n 's/.*: \([0-9]*\) paths,.*/\1/p' "$OUT/cornell.run")
+samples=$(sed -n 's/.*: \([0-9]*\) samples,.*/\1/p' "$OUT/cornell.run")
+paths=$(sed -n 's/.*, \([0-9]*\) paths,.*/\1/p' "$OUT/cornell.run")
 insns=$(sed -n 's/^insns: //p' "$OUT/cornell.icount")
 read -r -a marks <<<"$(sed -n 's/^marks: //p' "$OUT/cornell.icount")"
-[ -n "$stack" ] && [ -n "$paths" ] && [ -n "$insns" ] && [ "${#marks[@]}" = 5 ] ||
+[ -n "$stack" ] && [ -n "$samples" ] && [ -n "$paths" ] && [ -n "$insns" ] &&
+    [ -n "$code_stack" ] && [ "${#marks[@]}" = 5 ] ||
     fail "could not read the firmware's figures"
 render=$((marks[3] - marks[2]))
 {
-    echo "# examples/firmware, release, cornell.scene 64x64, 16 spp, seed 0 (QEMU netduinoplus2)"
-    echo "# written by .ci/firmware.sh; bytes and executed instructions"
+    echo "# examples/firmware, release, cornell.scene 64x64, Budget::Spp(16) adaptive, seed 0"
+    echo "# (QEMU netduinoplus2 -icount shift=0); written by .ci/firmware.sh; bytes and"
+    echo "# executed instructions"
     echo "flash: $flash  (.vector_table $vt + .text $text + .rodata $rodata + .data $data; budget 65536)"
     echo "static_ram: $static_ram  (.data $data + .bss $bss + .uninit $uninit)"
     echo "framebuffer: $fb"
-    echo "renderer_state: $state  (static RAM but the framebuffer; budget 16384)"
+    echo "renderer_state: $state  (static RAM but the framebuffer: TileAccum, scene, clock; budget 16384)"
     echo "stack_high_water: $stack  (budget 4096)"
     echo "insns_total: $insns"
     echo "insns_reset_to_main: ${marks[0]}  (vector table, stack paint, RAM init)"
-    echo "insns_sqrt_selftest: $((marks[1] - marks[0]))  (4111 vsqrt.f32 vs libm::sqrtf)"
-    echo "insns_parse_and_setup: $((marks[2] - marks[1]))  (parse the scene, camera)"
-    echo "insns_render: $render  (all tiles, incl. tone mapping into the framebuffer)"
+    echo "insns_sqrt_selftest: $((marks[1] - marks[0]))  (4111 vsqrt.f32 vs libm::sqrtf, SysTick start)"
+    echo "insns_parse_and_setup: $((marks[2] - marks[1]))  (parse the scene, analysis, camera)"
+    echo "insns_render: $render  (budget executor: previews, refinement, tone mapping into the framebuffer)"
     echo "insns_dump: $((marks[4] - marks[3]))  (semihosting write of the image)"
     echo "insns_after: $((insns - marks[4]))  (stack scan, summary line, exit)"
-    echo "paths: $paths"
+    echo "samples: $samples  (in the image: the budget)"
+    echo "paths: $paths  (traced: samples + one recomputed preview sample per pixel)"
     echo "insns_per_path: $((render / paths))"
+    echo "insns_per_sample: $((render / samples))"
 } >"$OUT/cornell.size"
+{
+    echo "# examples/firmware without the parser and glass code (cornell built in code):"
+    echo "# cargo build -p micropt --release --example firmware --no-default-features --features firmware,mirror"
+    echo "# written by .ci/firmware.sh; bytes; same image as the parser build"
+    echo "flash: $code_flash  (parser build: $flash; saved $((flash - code_flash)))"
+    echo "text_rodata: $((code_text + code_rodata))  (parser build: $((text + rodata)); saved $((text + rodata - code_text - code_rodata)))"
+    echo "stack_high_water: $code_stack  (parser build: $stack)"
+} >"$OUT/cornell-code.size"
+cat "$OUT/cornell-code.size"
 cat "$OUT/cornell.size"
 
 ok=1
@@ -145,12 +205,12 @@ if arm-none-eabi-nm "$ELF" | grep -E ' (__aeabi_(d[a-z0-9]+|(f|i|ui|l|ul)2d)|__(
     ok=0
 fi
 # the render path uses the FPU square root, not libm's software one
-arm-none-eabi-objdump -d --no-show-raw-insn "$ELF" >"$OUT/firmware.dis"
-render_fn=$(awk '/^[0-9a-f]+ <.*accumulate_tile.*>:$/ { f = 1; next } /^[0-9a-f]+ <.*>:$/ { f = 0 } f' "$OUT/firmware.dis")
-if [ -z "$render_fn" ]; then
-    echo "note: accumulate_tile was inlined; checking the whole firmware for vsqrt.f32"
-    render_fn=$(grep -v 'sqrtf' "$OUT/firmware.dis")
-fi
+arm-none-eabi-objdump -d -C --no-show-raw-insn "$ELF" >"$OUT/firmware.dis"
+# the render code: the core's sampling, integrator, ray queries and budget
+# executor (whichever of them the compiler kept as functions)
+render_re='<micropt::(integrator|material|light|render|budget|scene::SceneView|geometry)[^>]*>:$'
+render_fn=$(awk -v re="$render_re" '/^[0-9a-f]+ <.*>:$/ { f = ($0 ~ re); next } f' "$OUT/firmware.dis")
+[ -n "$render_fn" ] || fail "no render function of the core found in the disassembly"
 grep -q 'vsqrt.f32' <<<"$render_fn" || { echo "error: no vsqrt.f32 in the render code" >&2; ok=0; }
 if grep -E 'bl.*<.*sqrtf.*>' <<<"$render_fn"; then
     echo "error: the render code calls a software sqrtf" >&2
@@ -161,11 +221,12 @@ echo "budgets met; no soft-double symbols; vsqrt.f32 in the render code; links w
 
 if [ "$BLESS" = 1 ]; then
     mkdir -p firmware/expected
-    cp "$OUT/cornell.size" firmware/expected/cornell.size
-    cp "$OUT/cornell.run" firmware/expected/cornell.run
-    echo "wrote firmware/expected/cornell.{size,run}"
+    for f in cornell.size cornell.run cornell-code.size; do
+        cp "$OUT/$f" "firmware/expected/$f"
+    done
+    echo "wrote firmware/expected/cornell.{size,run} and cornell-code.size"
 else
-    for f in cornell.size cornell.run; do
+    for f in cornell.size cornell.run cornell-code.size; do
         if ! diff -u "firmware/expected/$f" "$OUT/$f"; then
             echo "note: measured figures differ from firmware/expected/$f" \
                 "(informational; budgets above are the check; .ci/firmware.sh --bless updates)"
@@ -174,7 +235,7 @@ else
 fi
 
 fstep "board example: STM32F405 + ST7789 (mipidsi)"
-cargo build --release --example st7789 --features board-st7789 --target "$TARGET"
+cargo build -p micropt --release --example st7789 --features board-st7789 --target "$TARGET"
 arm-none-eabi-size "target/$TARGET/release/examples/st7789"
 
 fstep "firmware done"

@@ -1,20 +1,27 @@
 //! The micropt core on a Cortex-M4F (STM32F405), run in QEMU.
 //!
-//! Parses a scene file embedded at compile time with the core's parser,
-//! renders it tile by tile into an embedded-graphics `Framebuffer<Rgb565>`
-//! held in static memory, writes the framebuffer's big-endian Rgb565 bytes to
-//! a host file through semihosting, prints a one-line summary and exits with
-//! status 0 (1 on any error).
+//! Parses a scene file embedded at compile time with the core's parser (or,
+//! without the core's `parser` feature, builds the Cornell box in code with
+//! `SceneBuilder`), renders it with the core's single-core budget executor
+//! (`micropt::budget::render_budget`: every tile's 1-spp preview, then every
+//! refined tile, with adaptive allocation as the host CLI's default) into an
+//! embedded-graphics `Framebuffer<Rgb565>` held in static memory, writes the
+//! framebuffer's big-endian Rgb565 bytes to a host file through semihosting,
+//! prints a one-line summary and exits with status 0 (1 on any error).
 //!
 //! ```text
 //! cargo run --release --example firmware --features firmware --target thumbv7em-none-eabihf
 //! ```
 //!
 //! The runner in `.cargo/config.toml` starts `qemu-system-arm -machine
-//! netduinoplus2`. Scene, size, samples per pixel, seed and output file are
-//! compile-time choices (`MICROPT_FW_*` environment variables, read by
-//! `build.rs`; see `docs/firmware.md`). The dump is byte-identical to
-//! `micropt render SCENE --spp N --size WxH --seed S -o out.rgb565` on the host.
+//! netduinoplus2`. Scene, size, budget, allocation, skip switches, seed and
+//! output file are compile-time choices (`MICROPT_FW_*` environment
+//! variables, read by `build.rs`; see `docs/firmware.md`). With a sample
+//! budget the dump is byte-identical to `micropt render SCENE --spp N --size
+//! WxH --seed S -o out.rgb565` on the host (add `--uniform` for
+//! `MICROPT_FW_UNIFORM=1`). The budget executor's clock is SysTick
+//! (`examples/board/systick.rs`), which only a deadline budget reads for
+//! more than the summary line.
 //!
 //! Before the render it checks that the FPU's `vsqrt.f32` (the core's
 //! `math::sqrt` on this target) equals `libm::sqrtf` bit for bit on a set of
@@ -38,31 +45,50 @@ use cortex_m_semihosting::{debug, hio, nr, syscall};
 use embedded_graphics::framebuffer::{Framebuffer, buffer_size};
 use embedded_graphics::pixelcolor::Rgb565;
 use embedded_graphics::pixelcolor::raw::{BigEndian, RawU16};
-use micropt::film::{TILE, draw_tile, tiles};
-use micropt::parse::ParseError;
-use micropt::{Color, Renderer, Scene, Stats, math};
+use micropt::budget::{Summary, TileAccum, render_budget};
+use micropt::{AdaptiveOptions, Budget, Options, Renderer, Scene, math};
+
+#[path = "board/systick.rs"]
+mod systick;
+use systick::SysTickClock;
 
 /// The compile-time configuration written by `build.rs`.
 mod config {
     include!(concat!(env!("OUT_DIR"), "/firmware_config.rs"));
 }
-use config::{HEIGHT, MAX_MATERIALS, MAX_PLANES, MAX_SPHERES, SEED, SPP, WIDTH};
+use config::{HEIGHT, MAX_MATERIALS, MAX_PLANES, MAX_SPHERES, SEED, WIDTH};
 
 /// The scene file chosen at compile time (`MICROPT_FW_SCENE`).
+#[cfg(feature = "parser")]
 const SCENE_TEXT: &str = include_str!(concat!(env!("OUT_DIR"), "/firmware.scene"));
 
 /// Exposure of the tone mapping (the host CLI's default).
 const EXPOSURE: f32 = 1.0;
 
+/// Core clock of QEMU's STM32F405 (and of the board at full speed), for the
+/// SysTick clock.
+const CORE_HZ: u32 = 168_000_000;
+
 type FirmwareScene = Scene<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>;
+/// Static storage for the scene.
+type SceneSlot = heapless::Vec<FirmwareScene, 1>;
 type Fb =
     Framebuffer<Rgb565, RawU16, BigEndian, WIDTH, HEIGHT, { buffer_size::<Rgb565>(WIDTH, HEIGHT) }>;
 
 /// Everything that can go wrong, each reported on the host's stderr.
 enum Error {
-    Parse(ParseError),
+    #[cfg(feature = "parser")]
+    Parse(micropt::parse::ParseError),
+    #[cfg(not(feature = "parser"))]
+    Scene(micropt::SceneError),
     Camera,
-    SqrtMismatch { input: u32, fpu: u32, libm: u32 },
+    Peripherals,
+    SceneSlot,
+    SqrtMismatch {
+        input: u32,
+        fpu: u32,
+        libm: u32,
+    },
     Open,
     Write,
 }
@@ -72,11 +98,14 @@ fn main() -> ! {
     // Static memory, handed out once as `&'static mut` by cortex-m-rt's
     // `#[entry]` (no `unsafe`, no panicking singleton).
     static mut FRAMEBUFFER: Fb = Fb::new();
-    static mut TILE_PIXELS: [Color; (TILE * TILE) as usize] = [Color::ZERO; (TILE * TILE) as usize];
-    static mut SCENE: Option<FirmwareScene> = None;
+    static mut ACCUM: TileAccum = TileAccum::new();
+    // an empty one-slot Vec is all zeros: it goes to .bss, where an
+    // `Option<Scene>::None` (a non-zero niche) would put the whole scene's
+    // size in .data, and so in flash
+    static mut SCENE: SceneSlot = SceneSlot::new();
 
     mark(); // start of main: reset handler, stack paint and RAM init done
-    let status = match run(FRAMEBUFFER, TILE_PIXELS, SCENE) {
+    let status = match run(FRAMEBUFFER, ACCUM, SCENE) {
         Ok(()) => debug::EXIT_SUCCESS,
         Err(e) => {
             report(&e);
@@ -89,53 +118,154 @@ fn main() -> ! {
     }
 }
 
+/// The scene: parsed from the embedded file, into `slot`. (Not inlined:
+/// the parser's stack, and the scene it returns by value, are not live
+/// during the render.)
+#[cfg(feature = "parser")]
+#[inline(never)]
+fn load_scene(slot: &'static mut SceneSlot) -> Result<&'static FirmwareScene, Error> {
+    let scene =
+        micropt::parse::parse_with_capacity::<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>(SCENE_TEXT)
+            .map_err(Error::Parse)?;
+    keep(slot, scene)
+}
+
+/// The scene: `scenes/cornell.scene`, built in code (no parser in the
+/// build), into `slot`. The numbers are the file's, so the image is the
+/// same bits.
+#[cfg(not(feature = "parser"))]
+#[inline(never)]
+fn load_scene(slot: &'static mut SceneSlot) -> Result<&'static FirmwareScene, Error> {
+    use micropt::{CameraSpec, Material, SceneBuilder, Vec3};
+    let build = || -> Result<FirmwareScene, micropt::SceneError> {
+        let mut b = SceneBuilder::<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>::new();
+        b.camera(CameraSpec {
+            eye: Vec3::new(0.5, 0.5, 0.98),
+            target: Vec3::new(0.5, 0.5, 0.0),
+            up: Vec3::new(0.0, 1.0, 0.0),
+            vfov_deg: 60.0,
+        })?;
+        b.resolution(64, 64)?;
+        let white = b.material(Material::Diffuse(Vec3::new(0.725, 0.71, 0.68)))?;
+        let red = b.material(Material::Diffuse(Vec3::new(0.63, 0.065, 0.05)))?;
+        let green = b.material(Material::Diffuse(Vec3::new(0.14, 0.45, 0.091)))?;
+        let matte = b.material(Material::Diffuse(Vec3::new(0.8, 0.8, 0.8)))?;
+        let chrome = b.material(Material::Mirror(Vec3::new(0.95, 0.95, 0.95)))?;
+        let lamp = b.material(Material::Light(Vec3::new(20.0, 20.0, 20.0)))?;
+        let v = Vec3::new;
+        b.plane(v(0.0, 0.0, 0.0), v(0.0, 1.0, 0.0), white)?; // floor
+        b.plane(v(0.0, 1.0, 0.0), v(0.0, -1.0, 0.0), white)?; // ceiling
+        b.plane(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), white)?; // back wall
+        b.plane(v(0.0, 0.0, 1.0), v(0.0, 0.0, -1.0), white)?; // front wall
+        b.plane(v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), red)?; // left wall
+        b.plane(v(1.0, 0.0, 0.0), v(-1.0, 0.0, 0.0), green)?; // right wall
+        b.sphere(v(0.5, 0.85, 0.4), 0.08, lamp)?;
+        b.sphere(v(0.3, 0.2, 0.35), 0.2, chrome)?;
+        b.sphere(v(0.72, 0.15, 0.6), 0.15, matte)?;
+        b.build()
+    };
+    keep(slot, build().map_err(Error::Scene)?)
+}
+
+/// Moves `scene` into the static `slot`.
+fn keep(
+    slot: &'static mut SceneSlot,
+    scene: FirmwareScene,
+) -> Result<&'static FirmwareScene, Error> {
+    slot.clear();
+    slot.push(scene).map_err(|_| Error::SceneSlot)?;
+    let slot: &'static SceneSlot = slot;
+    slot.first().ok_or(Error::SceneSlot)
+}
+
 fn run(
     fb: &'static mut Fb,
-    tile_px: &'static mut [Color; (TILE * TILE) as usize],
-    scene_slot: &'static mut Option<FirmwareScene>,
+    acc: &'static mut TileAccum,
+    scene_slot: &'static mut SceneSlot,
 ) -> Result<(), Error> {
     check_fpu_sqrt()?;
-    mark(); // sqrt self-test done
-    let scene = scene_slot.insert(
-        micropt::parse::parse_with_capacity::<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>(SCENE_TEXT)
-            .map_err(Error::Parse)?,
-    );
+    let mut clock = match cortex_m::Peripherals::take() {
+        Some(p) => SysTickClock::start(p.SYST, CORE_HZ),
+        None => return Err(Error::Peripherals),
+    };
+    mark(); // sqrt self-test done, clock started
+    let scene = load_scene(scene_slot)?;
     let renderer = Renderer::new(scene, WIDTH as u32, HEIGHT as u32)
         .map_err(|_| Error::Camera)?
-        .seed(SEED);
-    mark(); // scene parsed, camera set up
+        .seed(SEED)
+        .options(Options {
+            // opaque to the optimiser: every MICROPT_FW_SKIP_OFF choice runs
+            // the same machine code, as the host does with its run-time
+            // options, so instruction counts differ only by the work skipped
+            skip: core::hint::black_box(config::SKIP),
+            ..Options::default()
+        });
+    let adaptive = AdaptiveOptions {
+        adaptive: config::ADAPTIVE,
+        ..AdaptiveOptions::default()
+    };
+    mark(); // scene loaded, camera set up
 
-    let mut stats = Stats::default();
-    for tile in tiles(WIDTH as u32, HEIGHT as u32) {
-        renderer.render_tile(&tile, SPP, tile_px, &mut stats);
-        // the framebuffer's error type is Infallible
-        let _ = draw_tile(fb, &tile, tile_px, EXPOSURE);
-    }
+    // the framebuffer's error type is Infallible
+    let Ok(sum) = render_budget(
+        &renderer,
+        config::BUDGET,
+        &adaptive,
+        acc,
+        &mut clock,
+        fb,
+        EXPOSURE,
+    );
     mark(); // image rendered into the framebuffer
 
     dump(fb.data())?;
     mark(); // dump written
 
-    let stack = stack_high_water();
-    let mut out = HostOut::stdout();
-    let _ = writeln!(
-        out,
-        "micropt firmware: {} {}x{} spp {} seed {}: {} paths, {} bounce rays, {} shadow rays, \
-         {} non-finite; wrote {} ({} bytes); stack high-water {} bytes",
-        config::SCENE_NAME,
-        WIDTH,
-        HEIGHT,
-        SPP,
-        SEED,
-        stats.paths,
-        stats.bounce_rays,
-        stats.shadow_rays,
-        stats.nonfinite,
-        output_name(),
-        fb.data().len(),
-        stack,
-    );
+    summary(&sum, fb.data().len(), stack_high_water());
     Ok(())
+}
+
+/// Prints the one-line summary. (Not inlined: its formatting stack is not
+/// live during the render.) Strings go out with `write_str`, numbers with
+/// `{}`: a `{}` of a `&str` would link the formatter's padding code (1.5 KiB
+/// of flash).
+#[inline(never)]
+fn summary(sum: &Summary, bytes: usize, stack: usize) {
+    let mut out = HostOut::stdout();
+    let o = &mut out;
+    let _ = o.write_str("micropt firmware: ");
+    let _ = o.write_str(config::SCENE_NAME);
+    let _ = write!(o, " {WIDTH}x{HEIGHT} ");
+    let _ = match config::BUDGET {
+        Budget::Deadline(us) => write!(o, "deadline {} ms", us / 1000),
+        Budget::Paths(p) => write!(o, "paths {p}"),
+        Budget::Spp(n) => write!(o, "spp {n}"),
+    };
+    let _ = o.write_str(if config::ADAPTIVE {
+        " adaptive skip "
+    } else {
+        " uniform skip "
+    });
+    let _ = o.write_str(config::SKIP_LABEL);
+    let _ = write!(
+        o,
+        " seed {SEED}: {} samples, {} paths, {} bounce rays, {} shadow rays, {} non-finite; ",
+        sum.samples,
+        sum.stats.paths,
+        sum.stats.bounce_rays,
+        sum.stats.shadow_rays,
+        sum.stats.nonfinite,
+    );
+    // SysTick time: deterministic under QEMU's `-icount` (the runner's
+    // `shift=0` makes it the instruction count / 1000), not on a board
+    let _ = write!(
+        o,
+        "preview {} us, total {} us; ",
+        sum.preview_micros, sum.total_micros
+    );
+    let _ = o.write_str("wrote ");
+    let _ = o.write_str(output_name());
+    let _ = writeln!(o, " ({bytes} bytes); stack high-water {stack} bytes");
 }
 
 /// The host file name without its terminating NUL.
@@ -176,6 +306,7 @@ fn dump(bytes: &[u8]) -> Result<(), Error> {
 /// `sqrtf`, bit for bit: zeros, subnormals, powers of two, perfect squares,
 /// huge values, infinity, negative numbers and a pseudo-random sweep over all
 /// positive floats. NaN results must both be NaN (their payloads may differ).
+#[inline(never)]
 fn check_fpu_sqrt() -> Result<(), Error> {
     let specials = [
         0x0000_0000u32, // +0
@@ -274,18 +405,33 @@ impl Write for HostOut {
 
 fn report(e: &Error) {
     let mut err = HostOut::stderr();
+    let o = &mut err;
+    // strings with `write_str` (see `summary`)
+    let _ = o.write_str("micropt firmware: ");
     let _ = match e {
-        Error::Parse(p) => writeln!(err, "micropt firmware: {}: {p}", config::SCENE_NAME),
-        Error::Camera => writeln!(err, "micropt firmware: invalid camera for the image size"),
+        #[cfg(feature = "parser")]
+        Error::Parse(p) => {
+            let _ = o.write_str(config::SCENE_NAME);
+            writeln!(o, ": {p}")
+        }
+        #[cfg(not(feature = "parser"))]
+        Error::Scene(e) => writeln!(o, "the scene built in code: {e}"),
+        Error::Camera => o.write_str("invalid camera for the image size\n"),
+        Error::Peripherals => o.write_str("core peripherals already taken\n"),
+        Error::SceneSlot => o.write_str("the scene's static slot is in use\n"),
         Error::SqrtMismatch { input, fpu, libm } => writeln!(
-            err,
-            "micropt firmware: vsqrt.f32 differs from libm::sqrtf: sqrt({input:#010x}) = {fpu:#010x}, libm {libm:#010x}"
+            o,
+            "vsqrt.f32 differs from libm::sqrtf: sqrt({input:#010x}) = {fpu:#010x}, libm {libm:#010x}"
         ),
-        Error::Open => writeln!(
-            err,
-            "micropt firmware: cannot open host file {} for writing (is semihosting enabled?)",
-            output_name()
-        ),
-        Error::Write => writeln!(err, "micropt firmware: writing {} failed", output_name()),
+        Error::Open => {
+            let _ = o.write_str("cannot open host file ");
+            let _ = o.write_str(output_name());
+            o.write_str(" for writing (is semihosting enabled?)\n")
+        }
+        Error::Write => {
+            let _ = o.write_str("writing ");
+            let _ = o.write_str(output_name());
+            o.write_str(" failed\n")
+        }
     };
 }

@@ -1,14 +1,20 @@
 //! micropt on a real display board: an STM32F405 driving a 240×240 ST7789
-//! SPI panel through `mipidsi`, rendering the Cornell box tile by tile
-//! straight to the panel.
+//! SPI panel through `mipidsi`, rendering the Cornell box progressively,
+//! tile by tile, straight to the panel.
 //!
 //! There is no framebuffer: 240×240 Rgb565 is 113 KiB, which does not fit
-//! beside the renderer in the F405's 128 KiB of RAM. Each 16×16 tile is
-//! rendered into a 3 KiB buffer of linear radiance, tone-mapped, dithered and
-//! sent to the panel with one `fill_contiguous` (a window write). A quick
-//! 1-sample preview pass comes first, then the final pass overwrites it
-//! tile by tile with [`SPP`] samples per pixel (the image the host CLI gives
-//! for `--size 240x240 --spp 16 --seed 0`).
+//! beside the renderer in the F405's 128 KiB of RAM. The core's single-core
+//! budget executor (`micropt::budget::render_budget`) keeps one 16×16 tile
+//! of sample accumulators (`TileAccum`, 5 KiB, static) and draws every tile
+//! twice, each time tone-mapped, dithered and sent to the panel with one
+//! `fill_contiguous` (a window write): first a 1-sample preview of the whole
+//! image, then each tile refined to its share of the budget, with adaptive
+//! allocation (more samples where a pixel's estimated error is larger). With
+//! [`BUDGET`] = `Budget::Spp(16)` the final image is what the host CLI gives
+//! for `micropt render scenes/cornell.scene --size 240x240 --spp 16 --seed 0`.
+//! A `Budget::Deadline(µs)` stops refining at a deadline instead, read from
+//! the SysTick clock (`examples/board/systick.rs`); the preview always
+//! completes.
 //!
 //! Wiring (SPI1; any STM32F405 board, e.g. a "black F405" or Feather):
 //!
@@ -36,8 +42,8 @@ use panic_halt as _;
 
 use cortex_m_rt::entry;
 use embedded_hal_bus::spi::ExclusiveDevice;
-use micropt::film::{TILE, draw_tile, tiles};
-use micropt::{Color, Renderer, Scene, Stats};
+use micropt::budget::{TileAccum, render_budget};
+use micropt::{AdaptiveOptions, Budget, Renderer, Scene};
 use mipidsi::Builder;
 use mipidsi::interface::SpiInterface;
 use mipidsi::models::ST7789;
@@ -47,12 +53,19 @@ use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config;
 use stm32f4xx_hal::spi::{Mode, Phase, Polarity};
 
+#[path = "board/systick.rs"]
+mod systick;
+
 /// Panel size.
 const WIDTH: u32 = 240;
 /// Panel size.
 const HEIGHT: u32 = 240;
-/// Samples per pixel of the final pass.
-const SPP: u32 = 16;
+/// Core clock.
+const CORE_HZ: u32 = 168_000_000;
+/// The render budget: 16 samples per pixel on average (about 45 s at
+/// 168 MHz, docs/firmware.md); e.g. `Budget::Deadline(10_000_000)` for a
+/// frame in 10 s.
+const BUDGET: Budget = Budget::Spp(16);
 /// Render seed.
 const SEED: u64 = 0;
 /// The scene, parsed on the board.
@@ -65,14 +78,15 @@ type BoardScene = Scene<4, 8, 8>;
 fn main() -> ! {
     // static memory, handed out once as `&'static mut` by `#[entry]`
     static mut SPI_BUFFER: [u8; 512] = [0; 512];
-    static mut TILE_PIXELS: [Color; (TILE * TILE) as usize] = [Color::ZERO; (TILE * TILE) as usize];
-    static mut SCENE: Option<BoardScene> = None;
+    static mut ACCUM: TileAccum = TileAccum::new();
+    // an empty one-slot Vec is all zeros (.bss, not flash)
+    static mut SCENE: heapless::Vec<BoardScene, 1> = heapless::Vec::new();
 
     let (Some(dp), Some(cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         halt()
     };
     // 168 MHz from the internal 16 MHz oscillator: no crystal assumed
-    let mut rcc = dp.RCC.freeze(Config::hsi().sysclk(168.MHz()));
+    let mut rcc = dp.RCC.freeze(Config::hsi().sysclk(CORE_HZ.Hz()));
     let mut delay = cp.SYST.delay(&rcc.clocks);
     let gpioa = dp.GPIOA.split(&mut rcc);
     let gpiob = dp.GPIOB.split(&mut rcc);
@@ -103,23 +117,33 @@ fn main() -> ! {
         halt()
     };
 
+    // SysTick did the panel's reset delays; now it is the render's clock
+    let mut clock = systick::SysTickClock::start(delay.release().release(), CORE_HZ);
+
     let Ok(scene) = micropt::parse::parse_with_capacity(SCENE_TEXT) else {
         halt()
     };
-    let scene: &BoardScene = SCENE.insert(scene);
+    if SCENE.push(scene).is_err() {
+        halt()
+    }
+    let scene: &BoardScene = match SCENE.first() {
+        Some(s) => s,
+        None => halt(),
+    };
     let Ok(renderer) = Renderer::new(scene, WIDTH, HEIGHT) else {
         halt()
     };
     let renderer = renderer.seed(SEED);
-    let mut stats = Stats::default();
-    for spp in [1, SPP] {
-        for tile in tiles(WIDTH, HEIGHT) {
-            renderer.render_tile(&tile, spp, TILE_PIXELS, &mut stats);
-            if draw_tile(&mut display, &tile, TILE_PIXELS, 1.0).is_err() {
-                halt()
-            }
-        }
-    }
+    // preview first, then refined tiles, each straight to the panel
+    let _ = render_budget(
+        &renderer,
+        BUDGET,
+        &AdaptiveOptions::default(),
+        ACCUM,
+        &mut clock,
+        &mut display,
+        1.0,
+    );
     halt()
 }
 

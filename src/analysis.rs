@@ -92,16 +92,21 @@ pub struct Listed {
     pub id: ObjectId,
 }
 
-/// The spheres named by `ids`, copied with their ids.
+/// The spheres named by `ids`, copied with their ids (a push loop:
+/// heapless' `collect` keeps a panic branch that the firmware's panic-never
+/// link rejects).
 fn listed<const S: usize>(spheres: &[Sphere], ids: &[u16]) -> Vec<Listed, S> {
-    ids.iter()
-        .filter_map(|&i| {
-            spheres.get(i as usize).map(|&sphere| Listed {
+    let mut out = Vec::new();
+    for &i in ids {
+        if let Some(&sphere) = spheres.get(i as usize) {
+            // at most as many entries as `ids`, whose capacity is S too
+            let _ = out.push(Listed {
                 sphere,
                 id: ObjectId::sphere(i as usize),
-            })
-        })
-        .collect()
+            });
+        }
+    }
+    out
 }
 
 /// Per axis, the opaque axis-aligned planes nearest the camera below and
@@ -337,9 +342,29 @@ pub fn analyse<const S: usize, const P: usize>(
         };
         let _ = order.push((key, i as u16));
     }
-    order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    let view_order: Vec<u16, S> = order.iter().map(|&(_, i)| i).collect();
-    let view_keys = order.iter().map(|&(k, _)| k).collect();
+    // insertion sort by descending key, then index (a total order, so the
+    // same result as any sort): core's sort and heapless' `collect` keep
+    // panic branches that the firmware's panic-never link rejects
+    let o = order.as_mut_slice();
+    for i in 1..o.len() {
+        for j in (1..=i).rev() {
+            let Some([a, b]) = o.get_mut(j - 1..=j) else {
+                break;
+            };
+            if a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)).is_lt() {
+                core::mem::swap(a, b);
+            } else {
+                break;
+            }
+        }
+    }
+    let mut view_order: Vec<u16, S> = Vec::new();
+    let mut view_keys: Vec<f32, S> = Vec::new();
+    for &(k, i) in order.iter() {
+        // as many entries as `order`, whose capacity is S too
+        let _ = view_order.push(i);
+        let _ = view_keys.push(k);
+    }
 
     let specular = spheres
         .iter()
@@ -369,7 +394,10 @@ pub fn analyse<const S: usize, const P: usize>(
         _ => false,
     };
     let (slabs, other_planes) = slabs(planes, materials, eye);
-    let all: Vec<u16, S> = (0..spheres.len()).map(|i| i as u16).collect();
+    let mut all: Vec<u16, S> = Vec::new();
+    for i in 0..spheres.len() {
+        let _ = all.push(i as u16);
+    }
     let listed_all = listed(spheres, &all);
     let listed_view = listed(spheres, &view_order);
     let listed_shadow = listed(spheres, &shadow_spheres);
@@ -421,7 +449,8 @@ fn planes_enclose(planes: &[Plane], materials: &[Material], side: &dyn Fn(&Plane
     any_pair
 }
 
-#[cfg(test)]
+// the shared scenes need the parser and both specular materials
+#[cfg(all(test, feature = "parser", feature = "mirror", feature = "glass"))]
 mod tests {
     use crate::geometry::ObjectId;
     use crate::parse::parse;

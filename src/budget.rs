@@ -56,7 +56,7 @@
 //! every run, thread count and target. A `Deadline` stops when a caller's
 //! clock says so, which is not deterministic.
 
-use crate::film::{FromEncoded, TILE, Tile, draw_tile, tile_at, tile_count};
+use crate::film::{FromEncoded, TILE, Tile, draw_tile_iter, tile_at, tile_count};
 use crate::geometry::Color;
 use crate::integrator::Stats;
 use crate::math;
@@ -156,18 +156,25 @@ impl TileAccum {
 
     /// Writes each pixel's mean radiance to `out` (row-major in the tile).
     pub fn means(&self, out: &mut [Color]) {
-        for ((o, s), &n) in out
-            .iter_mut()
-            .zip(&self.sum)
+        for (o, m) in out.iter_mut().zip(self.mean_iter()) {
+            *o = m;
+        }
+    }
+
+    /// Each pixel's mean radiance (row-major in the tile), computed as it is
+    /// read.
+    pub fn mean_iter(&self) -> impl Iterator<Item = Color> + '_ {
+        self.sum
+            .iter()
             .zip(&self.count)
             .take(self.len)
-        {
-            *o = if n > 0 {
-                *s * (1.0 / n as f32)
-            } else {
-                Color::ZERO
-            };
-        }
+            .map(|(s, &n)| {
+                if n > 0 {
+                    *s * (1.0 / n as f32)
+                } else {
+                    Color::ZERO
+                }
+            })
     }
 
     /// Adds samples `count[i] .. count[i] + k` to every pixel `i` of
@@ -471,14 +478,13 @@ where
     let (w, h) = (r.width(), r.height());
     let start = clock.micros();
     let mut sum = Summary::default();
-    let mut px = [Color::ZERO; TILE_PIXELS];
     for i in 0..tile_count(w, h) {
         let Some(tile) = tile_at(w, h, i) else {
             continue;
         };
         r.preview_tile(&tile, acc, &mut sum.stats);
-        acc.means(&mut px);
-        draw_tile(target, &tile, &px, exposure)?;
+        // means drawn as computed: no tile buffer on the stack
+        draw_tile_iter(target, &tile, acc.mean_iter(), exposure)?;
     }
     let pixels = u64::from(w) * u64::from(h);
     sum.samples = pixels;
@@ -505,8 +511,7 @@ where
         r.preview_tile(&tile, acc, &mut sum.stats);
         let mut stop = |_: u64| deadline.is_some_and(|d| clock.micros() >= d);
         sum.samples += r.refine_tile(&tile, acc, share, opts, &mut stop, &mut sum.stats);
-        acc.means(&mut px);
-        result = draw_tile(target, &tile, &px, exposure);
+        result = draw_tile_iter(target, &tile, acc.mean_iter(), exposure);
     });
     result?;
     sum.total_micros = clock.micros().saturating_sub(start);

@@ -180,10 +180,26 @@ where
     D: DrawTarget,
     D::Color: FromEncoded,
 {
+    draw_tile_iter(target, tile, pixels.iter().copied(), exposure)
+}
+
+/// [`draw_tile`] from an iterator of linear radiance (row-major, the first
+/// `tile.len()` values are drawn): lets a caller compute pixels as they are
+/// drawn instead of holding a tile buffer.
+pub fn draw_tile_iter<D>(
+    target: &mut D,
+    tile: &Tile,
+    pixels: impl Iterator<Item = Color>,
+    exposure: f32,
+) -> Result<(), D::Error>
+where
+    D: DrawTarget,
+    D::Color: FromEncoded,
+{
     let w = tile.w.max(1);
-    let colors = pixels.iter().take(tile.len()).enumerate().map(|(i, c)| {
+    let colors = pixels.take(tile.len()).enumerate().map(|(i, c)| {
         let i = i as u32;
-        D::Color::from_encoded(tone_map(*c, exposure), tile.x + i % w, tile.y + i / w)
+        D::Color::from_encoded(tone_map(c, exposure), tile.x + i % w, tile.y + i / w)
     });
     target.fill_contiguous(&tile.rectangle(), colors)
 }

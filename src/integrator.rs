@@ -400,9 +400,7 @@ pub fn radiance(
             OneLight::first(scene, lights)
         },
     };
-    if !skip.specialize {
-        return trace::<true, true>(&ctx, ray, stream, opts, stats);
-    }
+    // many lights, or the skip off: the general variant
     if many {
         trace::<true, true>(&ctx, ray, stream, opts, stats)
     } else {
@@ -429,6 +427,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
     let mut specular = true;
     // undoes the (eta_i/eta_t)^2 radiance scaling for Russian roulette, so
     // that paths inside glass are not killed for a factor that cancels on exit
+    #[cfg_attr(not(feature = "glass"), allow(unused_mut))]
     let mut rr_scale = 1.0f32;
     let mut prev = PrevVertex {
         point: Vec3::ZERO,
@@ -562,11 +561,13 @@ fn trace<const SPEC: bool, const MANY: bool>(
                 specular = false;
                 ray = hit.spawn_on(n, dir);
             }
+            #[cfg(feature = "mirror")]
             Material::Mirror(tint) if SPEC => {
                 thr *= tint;
                 specular = true;
                 ray = hit.spawn(material::reflect(ray.dir, hit.normal));
             }
+            #[cfg(feature = "glass")]
             Material::Glass(ior) if SPEC => {
                 let (dir, f) =
                     material::sample_dielectric(ray.dir, hit.normal, ior, stream.next_f32());

@@ -48,6 +48,7 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod math;
+#[cfg(feature = "parser")]
 pub mod parse;
 pub mod render;
 pub mod sampler;

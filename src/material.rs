@@ -10,11 +10,15 @@ pub enum Material {
     /// Lambertian reflector with the given albedo, each channel in [0, 1].
     /// Two-sided: both sides of a surface reflect.
     Diffuse(Color),
-    /// Perfect specular reflector with the given tint in [0, 1].
+    /// Perfect specular reflector with the given tint in [0, 1]. Needs the
+    /// `mirror` cargo feature (default): without it [`crate::SceneBuilder`]
+    /// rejects the material with [`crate::SceneError::MaterialNotBuilt`].
     Mirror(Color),
     /// Smooth dielectric with this index of refraction (> 0) against a vacuum
     /// outside. A sphere's inside is the glass; for a plane, the side its
-    /// normal points to is the vacuum and the other side the glass.
+    /// normal points to is the vacuum and the other side the glass. Needs the
+    /// `glass` cargo feature (default): without it [`crate::SceneBuilder`]
+    /// rejects the material with [`crate::SceneError::MaterialNotBuilt`].
     Glass(f32),
     /// Emitter with this radiance (≥ 0) on the outward side of a sphere; it
     /// reflects nothing.
@@ -82,7 +86,9 @@ pub fn sample_cosine(n: Vec3, u1: f32, u2: f32, fast: bool) -> (Vec3, f32) {
     (t * x + b * y + n * cos_t, cos_t)
 }
 
-/// Mirror reflection of `d` about the unit normal `n`.
+/// Mirror reflection of `d` about the unit normal `n` (features `mirror`
+/// or `glass`).
+#[cfg(any(feature = "mirror", feature = "glass"))]
 #[inline(always)]
 pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
     d - n * (2.0 * d.dot(n))
@@ -91,7 +97,8 @@ pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
 /// Exact Fresnel reflectance of unpolarised light at a smooth dielectric
 /// interface, for `cos_i` = cosine of the incident angle (≥ 0) and
 /// `eta = eta_i / eta_t`. Returns `(R, cos_t)`; total internal reflection
-/// gives `(1, 0)`.
+/// gives `(1, 0)` (feature `glass`).
+#[cfg(feature = "glass")]
 #[inline]
 pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
     let sin2_t = eta * eta * math::max(0.0, 1.0 - cos_i * cos_i);
@@ -116,6 +123,8 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
 /// `(eta_i / eta_t)²` for refraction (radiance is scaled by the squared
 /// index ratio across an interface; the factors cancel on a path that enters
 /// and leaves, and make a light inside glass physically right).
+/// (Feature `glass`.)
+#[cfg(feature = "glass")]
 #[inline]
 pub fn sample_dielectric(d: Vec3, n: Vec3, ior: f32, u: f32) -> (Vec3, f32) {
     let cos_dn = d.dot(n);
@@ -153,6 +162,7 @@ pub fn sample_dielectric(d: Vec3, n: Vec3, ior: f32, u: f32) -> (Vec3, f32) {
 mod tests {
     use super::*;
 
+    #[cfg(feature = "glass")]
     #[test]
     fn fresnel_normal_incidence_and_tir() {
         // ((n-1)/(n+1))^2 = 0.04 for n = 1.5
@@ -166,6 +176,7 @@ mod tests {
         assert!(math::abs(r_in - r_out) < 1e-6);
     }
 
+    #[cfg(feature = "glass")]
     #[test]
     fn refraction_obeys_snell() {
         let n = Vec3::new(0.0, 1.0, 0.0);

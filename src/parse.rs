@@ -85,7 +85,12 @@ impl core::fmt::Display for ParseError {
             }
             ParseErrorKind::UnknownMaterial => f.write_str("unknown material (define it before use)"),
             ParseErrorKind::RedefinedMaterial => f.write_str("material defined twice"),
-            ParseErrorKind::Repeated(what) => write!(f, "second {what} statement"),
+            ParseErrorKind::Repeated(what) => {
+                // pieces, not `{what}` (see `SceneError`'s `Display`)
+                f.write_str("second ")?;
+                f.write_str(what)?;
+                f.write_str(" statement")
+            }
             ParseErrorKind::MissingCamera => f.write_str("no camera statement in the scene"),
             ParseErrorKind::Scene(e) => write!(f, "{e}"),
         }
@@ -340,4 +345,46 @@ pub fn parse_bytes_with_capacity<const S: usize, const P: usize, const M: usize>
             other => ParseErrorKind::Scene(other),
         },
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scene with a material this build has no code for is an error at
+    /// the material's line, never a silently different image (`cargo test
+    /// -p micropt --lib --no-default-features --features parser` runs the
+    /// refusing side).
+    #[test]
+    fn materials_left_out_of_the_build_are_line_errors() {
+        for (kind, def, built) in [
+            (
+                "mirror",
+                "material m mirror 1 1 1",
+                cfg!(feature = "mirror"),
+            ),
+            ("glass", "material m glass 1.5", cfg!(feature = "glass")),
+        ] {
+            let mut text: heapless::String<128> = heapless::String::new();
+            for part in [
+                "camera 0 0 4  0 0 0  0 1 0  40\n",
+                def,
+                "\nsphere 0 0 0 1 m\n",
+            ] {
+                text.push_str(part).unwrap();
+            }
+            let got = parse(&text);
+            if built {
+                assert!(got.is_ok(), "{kind}: {got:?}");
+            } else {
+                assert_eq!(
+                    got.err(),
+                    Some(ParseError {
+                        line: 2,
+                        kind: ParseErrorKind::Scene(SceneError::MaterialNotBuilt(kind)),
+                    })
+                );
+            }
+        }
+    }
 }

@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use micropt::{AdaptiveOptions, Budget, Options};
+use micropt::{AdaptiveOptions, Budget, Options, Skip};
 use micropt_host::bench;
 use micropt_host::image::{Image, OutputFormat};
 use micropt_host::metrics::compare;
@@ -88,6 +88,11 @@ struct RenderArgs {
     /// instead of where the estimated error is largest.
     #[arg(long)]
     uniform: bool,
+    /// Diagnostics: do the work the scene analysis would skip, to measure
+    /// what a skip saves. Comma-separated: shadow-occluders, view-culling,
+    /// specialize, horizon, unreachable-lights, closed, or all.
+    #[arg(long, value_name = "LIST", value_parser = parse_skips)]
+    no_skip: Option<Skip>,
     /// Image size WxH [default: the scene's resolution, else 64x64].
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     size: Option<(u32, u32)>,
@@ -135,6 +140,27 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
         return Err("width and height must be at most 16384".into());
     }
     Ok((w, h))
+}
+
+fn parse_skips(s: &str) -> Result<Skip, String> {
+    let mut k = Skip::ALL;
+    for name in s.split(',').map(str::trim) {
+        match name {
+            "shadow-occluders" => k.shadow_occluders = false,
+            "view-culling" => k.view_culling = false,
+            "specialize" => k.specialize = false,
+            "horizon" => k.horizon = false,
+            "unreachable-lights" => k.unreachable_lights = false,
+            "closed" => k.closed = false,
+            "all" => k = Skip::NONE,
+            other => {
+                return Err(format!(
+                    "unknown skip '{other}' (shadow-occluders, view-culling, specialize, horizon, unreachable-lights, closed, all)"
+                ));
+            }
+        }
+    }
+    Ok(k)
 }
 
 fn parse_exposure(s: &str) -> Result<f32, String> {
@@ -194,7 +220,10 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
         budget,
         seed: a.seed,
         threads: a.threads.map_or(0, |t| t as usize),
-        options: Options::default(),
+        options: Options {
+            skip: a.no_skip.unwrap_or(Skip::ALL),
+            ..Options::default()
+        },
         adaptive: AdaptiveOptions {
             adaptive: !a.uniform,
             ..AdaptiveOptions::default()

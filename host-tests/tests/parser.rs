@@ -1,5 +1,6 @@
 //! Scene format v1 parser: one test per error kind of SCENE_FORMAT.md, each
-//! checking the reported line, and property tests that no input panics.
+//! checking the reported line (arbitrary-input property tests that no input
+//! panics are in `stress_parse.rs`).
 
 use micropt::parse::{ParseError, ParseErrorKind, parse, parse_bytes, parse_with_capacity};
 use micropt::{CameraError, Material, SceneError, Vec3};
@@ -359,77 +360,10 @@ fn errors_display_their_line() {
     );
 }
 
-const WORDS: &[&str] = &[
-    "camera",
-    "resolution",
-    "background",
-    "material",
-    "sphere",
-    "plane",
-    "diffuse",
-    "mirror",
-    "glass",
-    "light",
-    "m",
-    "grey",
-    "lamp",
-    "0",
-    "1",
-    "-1",
-    "0.5",
-    "1e5",
-    "1e39",
-    "nan",
-    "inf",
-    "-0",
-    ".",
-    "#",
-    "\t",
-    "180",
-    "65536",
-    "4294967296",
-    "é",
-    "\u{0}",
-    "x-y_z",
-];
-
-fn token_soup() -> impl Strategy<Value = String> {
-    prop::collection::vec(
-        prop::collection::vec(prop::sample::select(WORDS), 0..14).prop_map(|w| w.join(" ")),
-        0..12,
-    )
-    .prop_map(|lines| lines.join("\n"))
-}
-
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
 
-    /// Parsing never panics on arbitrary bytes, and an error names a line
-    /// that exists.
-    #[test]
-    fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..600)) {
-        match parse_bytes(&bytes) {
-            Ok(_) => {}
-            Err(e) => {
-                let lines = bytes.split(|&b| b == b'\n').count() as u32;
-                prop_assert!(e.line >= 1 && e.line <= lines.max(1), "{e:?} of {lines}");
-                prop_assert!(!e.to_string().is_empty());
-            }
-        }
-    }
-
-    /// Token soups of the format's own words: never a panic, errors on an
-    /// existing line, and a successful parse always has a camera.
-    #[test]
-    fn token_soups_never_panic(text in token_soup()) {
-        match parse(&text) {
-            Ok(s) => prop_assert!(s.camera().vfov_deg > 0.0),
-            Err(e) => {
-                let lines = text.split('\n').count() as u32;
-                prop_assert!(e.line >= 1 && e.line <= lines.max(1), "{e:?}");
-            }
-        }
-    }
+    // Arbitrary bytes and token soups: tests/stress_parse.rs.
 
     /// Valid scenes with a random prefix of statements: a valid scene
     /// followed by garbage fails at the garbage's line.
