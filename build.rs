@@ -135,13 +135,14 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
         Some("1") => true,
         Some(s) => return Err(format!("MICROPT_FW_UNIFORM={s:?} is not 0 or 1")),
     };
-    const SKIPS: [&str; 6] = [
+    const SKIPS: [&str; 7] = [
         "shadow_occluders",
         "view_culling",
         "specialize",
         "horizon",
         "unreachable_lights",
         "closed",
+        "slabs",
     ];
     let mut skip_on = [true; SKIPS.len()];
     let skip_off = var("MICROPT_FW_SKIP_OFF").unwrap_or_default();

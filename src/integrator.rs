@@ -441,12 +441,17 @@ fn trace<const SPEC: bool, const MANY: bool>(
     let (mut bounces, mut shadows) = (0u32, 0u32);
     let mut depth = 0u32;
     loop {
-        let found = if depth == 0 && opts.skip.view_culling {
-            scene.closest_hit_primary(&ray, opts.skip.slabs)
-        } else if opts.skip.slabs {
-            scene.closest_hit(&ray, from)
+        // one inlined query for every ray, with the camera ray's sphere
+        // list when culling (a camera ray leaves no object)
+        let spheres = if depth == 0 && opts.skip.view_culling {
+            scene.tested_primary
         } else {
-            scene.closest_hit_any(&ray, from)
+            scene.tested
+        };
+        let found = if opts.skip.slabs {
+            scene.closest_hit_among(&ray, from, spheres)
+        } else {
+            scene.closest_hit_any_among(&ray, from, spheres)
         };
         let Some(hit) = found else {
             if scene.closed && opts.skip.closed {

@@ -561,10 +561,19 @@ impl SceneView<'_> {
     /// the ray enters it.
     #[inline(always)]
     pub fn closest_hit(&self, ray: &Ray, from: ObjectId) -> Option<Hit> {
+        self.closest_hit_among(ray, from, self.tested)
+    }
+
+    /// [`SceneView::closest_hit`] among the spheres `spheres` only (a
+    /// sub-list of [`SceneView::tested`], e.g. [`SceneView::tested_primary`]
+    /// for a camera ray). The integrator calls this one query for every ray,
+    /// choosing the list, so that its code is inlined once.
+    #[inline(always)]
+    pub fn closest_hit_among(&self, ray: &Ray, from: ObjectId, spheres: &[Listed]) -> Option<Hit> {
         nearest(
             Some(&self.slabs),
             listed(self.other_planes, self.planes),
-            self.tested,
+            spheres,
             self.planes,
             ray,
             from,
@@ -572,13 +581,25 @@ impl SceneView<'_> {
     }
 
     /// [`SceneView::closest_hit`] for any ray: every plane is tested on its
-    /// own (no slabs).
-    #[inline]
+    /// own (no slabs). Not inlined: the integrator uses it only when
+    /// [`crate::Skip::slabs`] is off.
+    #[inline(never)]
     pub fn closest_hit_any(&self, ray: &Ray, from: ObjectId) -> Option<Hit> {
+        self.closest_hit_any_among(ray, from, self.tested)
+    }
+
+    /// [`SceneView::closest_hit_any`] among the spheres `spheres` only.
+    #[inline(never)]
+    pub fn closest_hit_any_among(
+        &self,
+        ray: &Ray,
+        from: ObjectId,
+        spheres: &[Listed],
+    ) -> Option<Hit> {
         nearest(
             None,
             self.planes.iter().enumerate(),
-            self.tested,
+            spheres,
             self.planes,
             ray,
             from,
@@ -588,26 +609,12 @@ impl SceneView<'_> {
     /// The closest intersection of a camera ray: only the spheres that can
     /// be in view are tested; `slabs` as in [`SceneView::closest_hit`] (or
     /// every plane on its own).
-    #[inline(always)]
+    #[inline]
     pub fn closest_hit_primary(&self, ray: &Ray, slabs: bool) -> Option<Hit> {
         if slabs {
-            nearest(
-                Some(&self.slabs),
-                listed(self.other_planes, self.planes),
-                self.tested_primary,
-                self.planes,
-                ray,
-                ObjectId::NONE,
-            )
+            self.closest_hit_among(ray, ObjectId::NONE, self.tested_primary)
         } else {
-            nearest(
-                None,
-                self.planes.iter().enumerate(),
-                self.tested_primary,
-                self.planes,
-                ray,
-                ObjectId::NONE,
-            )
+            self.closest_hit_any_among(ray, ObjectId::NONE, self.tested_primary)
         }
     }
 
@@ -628,8 +635,9 @@ impl SceneView<'_> {
         )
     }
 
-    /// [`SceneView::occluded`] testing every object (no analysis).
-    #[inline]
+    /// [`SceneView::occluded`] testing every object (no analysis). Not
+    /// inlined: the integrator uses it only with skips off.
+    #[inline(never)]
     pub fn occluded_by_any(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
         blocked(
             self.tested,
