@@ -70,9 +70,9 @@ pub struct Analysis<const S: usize, const P: usize> {
     pub slabs: Slabs,
     /// The planes that [`Analysis::slabs`] does not hold (in index order).
     pub other_planes: Vec<u16, P>,
-    /// Every sphere with its id, in index order (what bounce rays test).
-    pub listed_all: Vec<Listed, S>,
-    /// The spheres of `view_order`, in that order, with their ids.
+    /// The spheres of `view_order`, in that order, with their ids: what
+    /// bounce rays test, and a prefix of which camera rays test (one list,
+    /// so that culling changes no tie between equally near spheres).
     pub listed_view: Vec<Listed, S>,
     /// The spheres of `shadow_spheres`, with their ids.
     pub listed_shadow: Vec<Listed, S>,
@@ -394,11 +394,6 @@ pub fn analyse<const S: usize, const P: usize>(
         _ => false,
     };
     let (slabs, other_planes) = slabs(planes, materials, eye);
-    let mut all: Vec<u16, S> = Vec::new();
-    for i in 0..spheres.len() {
-        let _ = all.push(i as u16);
-    }
-    let listed_all = listed(spheres, &all);
     let listed_view = listed(spheres, &view_order);
     let listed_shadow = listed(spheres, &shadow_spheres);
 
@@ -413,7 +408,6 @@ pub fn analyse<const S: usize, const P: usize>(
         specular,
         slabs,
         other_planes,
-        listed_all,
         listed_view,
         listed_shadow,
         light_clear,

@@ -382,7 +382,7 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             primary_spheres: a.view_order.get(..visible).unwrap_or(&a.view_order),
             slabs: a.slabs,
             other_planes: &a.other_planes,
-            tested: &a.listed_all,
+            tested: &a.listed_view,
             tested_primary: a.listed_view.get(..visible).unwrap_or(&a.listed_view),
             tested_shadow: &a.listed_shadow,
             light_clear: a.light_clear,
@@ -422,7 +422,8 @@ pub struct SceneView<'a> {
     pub slabs: Slabs,
     /// The planes that are not in `slabs`.
     pub other_planes: &'a [u16],
-    /// The spheres (copies with their ids) that bounce rays test.
+    /// The spheres (copies with their ids) that bounce rays test, in the
+    /// analysis' view order.
     pub tested: &'a [Listed],
     /// The spheres that camera rays test (`primary_spheres`).
     pub tested_primary: &'a [Listed],
