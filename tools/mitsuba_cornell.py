@@ -7,7 +7,8 @@ with the conventions of DESIGN.md ("Making more references"): integrator
 = conductor of tint R, glass = dielectric with ext_ior 1.0, emitters = spheres
 with an `area` emitter and a black BSDF, planes = rectangles 1000x the size of
 the scene. Then it renders the scene with Mitsuba (variant scalar_rgb) and with
-micropt (`micropt render --threads 1`) at the same spp, several seeds each,
+micropt (`micropt render --threads 1 --uniform`: unbiased, every pixel the
+same spp) at the same spp, several seeds each,
 measures seconds and MSE against the reference PFM (its own noise,
 rms_standard_error^2 from the .json, subtracted), and prints and writes the
 efficiency 1 / (MSE x seconds) of each and their ratio.
@@ -153,7 +154,10 @@ def run_mitsuba(mi, scene_dict, spp, seed):
 def run_micropt(binary, scene_path, spp, seed, tmp):
     out = os.path.join(tmp, f"micropt-{spp}-{seed}.pfm")
     r = subprocess.run(
-        [binary, "render", scene_path, "--spp", str(spp), "--seed", str(seed), "--threads", "1", "-o", out, "--json"],
+        # --uniform: the unbiased estimator (the CLI's default allocation is
+        # adaptive, which trades a measured bias for lower error)
+        [binary, "render", scene_path, "--spp", str(spp), "--seed", str(seed), "--threads", "1", "--uniform",
+         "-o", out, "--json"],
         check=True,
         capture_output=True,
         text=True,
