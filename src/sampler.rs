@@ -139,34 +139,59 @@ pub fn hash32(mut x: u32) -> u32 {
 /// pairs are computed when asked for.
 pub const CACHED_PAIRS: usize = 3;
 
-/// The key of stratified pair `pair` of the pixel whose key is `pixel_key`.
+/// Seed `j` of the pixel whose hashes are `h`: `lowbias32` of a Weyl
+/// sequence (the 32-bit analogue of splitmix64) on the first, so that seeds
+/// are independent-looking for every `j`, xor the second, so that two pixels
+/// share their seeds only if their 64-bit keys' hashes collide in both
+/// halves.
 #[inline(always)]
-fn pair_key(pixel_key: u64, pair: u32) -> u64 {
-    pixel_key ^ (pair as u64 + 1).wrapping_mul(0xa076_1d64_78bd_642f)
+fn pixel_seed(h: [u32; 2], j: u32) -> u32 {
+    hash32(h[0].wrapping_add(j.wrapping_mul(0x9e37_79b9))) ^ h[1]
+}
+
+/// The three Owen-scramble seeds of stratified pair `pair` of the pixel
+/// whose hashes are `h`.
+#[inline(always)]
+fn pair_seeds(h: [u32; 2], pair: u32) -> [u32; 3] {
+    let j = pair.wrapping_mul(3);
+    [
+        pixel_seed(h, j),
+        pixel_seed(h, j.wrapping_add(1)),
+        pixel_seed(h, j.wrapping_add(2)),
+    ]
 }
 
 /// What the sample streams of one pixel share: computed once per pixel, so
 /// that a sample pays only for its own index.
 #[derive(Debug, Clone, Copy)]
 pub struct PixelSampler {
-    key: u64,
+    hash: [u32; 2],
     pairs: [[u32; 3]; CACHED_PAIRS],
     rng: [u32; 2],
 }
 
 impl PixelSampler {
     /// The sampler of the pixel whose key is [`pixel_key`]`(seed, x, y)`.
+    ///
+    /// The key's two halves are hashed, and every seed (three per
+    /// stratified pair, two for the generator) is a 32-bit hash of them
+    /// ([`pixel_seed`]): thirteen 32-bit hashes, where 64-bit mixing cost a
+    /// Cortex-M4 several instructions per multiply (this runs once per pixel
+    /// and budget round).
     #[inline]
     pub fn new(pixel_key: u64) -> Self {
-        let r = mix64(pixel_key ^ 0xd1b5_4a32_d192_ed03);
+        let hash = [
+            hash32(pixel_key as u32 ^ 0x68e3_1da4),
+            hash32((pixel_key >> 32) as u32 ^ 0xb529_7a4d),
+        ];
         Self {
-            key: pixel_key,
+            hash,
             pairs: [
-                sobol_seeds(pair_key(pixel_key, 0)),
-                sobol_seeds(pair_key(pixel_key, 1)),
-                sobol_seeds(pair_key(pixel_key, 2)),
+                pair_seeds(hash, 0),
+                pair_seeds(hash, 1),
+                pair_seeds(hash, 2),
             ],
-            rng: [r as u32, (r >> 32) as u32],
+            rng: [pixel_seed(hash, u32::MAX), pixel_seed(hash, u32::MAX - 1)],
         }
     }
 
@@ -217,7 +242,7 @@ impl SampleStream<'_> {
         match self.pixel.pairs.get(pair as usize) {
             Some(seeds) if pair == 0 => sobol_2d_unshuffled(self.index, seeds),
             Some(seeds) => sobol_2d_seeded(self.index, seeds),
-            None => sobol_2d(self.index, pair_key(self.pixel.key, pair)),
+            None => sobol_2d_seeded(self.index, &pair_seeds(self.pixel.hash, pair)),
         }
     }
 
@@ -341,22 +366,33 @@ mod tests {
     }
 
     #[test]
-    fn cached_pairs_equal_the_direct_construction() {
+    fn every_pair_of_a_pixel_is_a_scrambled_sobol_sequence() {
         let px = PixelSampler::new(pixel_key(3, 10, 20));
         for i in [0u32, 1, 7, 1000] {
             let a = px.stream(i);
-            // every pair, cached or not, is the Sobol sequence of its key
-            // (pair 0 unshuffled)
+            // cached or not, every pair is the sequence of its seeds (pair 0
+            // unshuffled)
             for p in 0..5 {
-                let key = pair_key(pixel_key(3, 10, 20), p);
+                let seeds = pair_seeds(px.hash, p);
                 let want = if p == 0 {
-                    sobol_2d_unshuffled(i, &sobol_seeds(key))
+                    sobol_2d_unshuffled(i, &seeds)
                 } else {
-                    sobol_2d(i, key)
+                    sobol_2d_seeded(i, &seeds)
                 };
                 assert_eq!(a.stratified_2d(p), want);
             }
         }
+        // and each pair's first 64 points are stratified on an 8x8 grid,
+        // while different pairs are different sequences
+        for p in 0..5 {
+            let mut cells = [0u8; 64];
+            for i in 0..64 {
+                let [x, y] = px.stream(i).stratified_2d(p);
+                cells[(y * 8.0) as usize * 8 + (x * 8.0) as usize] += 1;
+            }
+            assert!(cells.iter().all(|&c| c == 1), "pair {p}: {cells:?}");
+        }
+        assert_ne!(px.stream(5).stratified_2d(1), px.stream(5).stratified_2d(2));
     }
 
     /// The independent numbers of a pixel's streams: uniform (mean 1/2,
