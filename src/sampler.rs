@@ -418,10 +418,14 @@ mod tests {
         let (mean, var) = (m / nf, m2 / nf - (m / nf) * (m / nf));
         // standard errors: 1/sqrt(12 n) = 1.1e-3 for the mean, 1/(12 sqrt(n))
         // = 3.3e-4 for the covariances
-        assert!((mean - 0.5).abs() < 5e-3, "{mean}");
-        assert!((var - 1.0 / 12.0).abs() < 2e-3, "{var}");
-        assert!((c_draw / nf).abs() < 1.5e-3, "{}", c_draw / nf);
-        assert!((c_sample / nf).abs() < 1.5e-3, "{}", c_sample / nf);
+        assert!(crate::math::abs(mean - 0.5) < 5e-3, "{mean}");
+        assert!(crate::math::abs(var - 1.0 / 12.0) < 2e-3, "{var}");
+        assert!(crate::math::abs(c_draw / nf) < 1.5e-3, "{}", c_draw / nf);
+        assert!(
+            crate::math::abs(c_sample / nf) < 1.5e-3,
+            "{}",
+            c_sample / nf
+        );
     }
 
     #[test]
