@@ -175,7 +175,8 @@ impl PixelSampler {
     ///
     /// The key's two halves are hashed, and every seed (three per
     /// stratified pair, two for the generator) is a 32-bit hash of them
-    /// ([`pixel_seed`]): thirteen 32-bit hashes, where 64-bit mixing cost a
+    /// (a Weyl sequence through `lowbias32`, xor the other half's hash):
+    /// thirteen 32-bit hashes, where 64-bit mixing cost a
     /// Cortex-M4 several instructions per multiply (this runs once per pixel
     /// and budget round).
     #[inline]
