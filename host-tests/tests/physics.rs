@@ -221,19 +221,24 @@ fn mean_variances(img: &micropt_host::Image, r: &Reference) -> [(f64, f64); 3] {
 
 /// No bias against the independent references: the image mean, pooled over
 /// the seeds, agrees with the reference mean within 3 standard errors (and
-/// each seed's within 4: with 8–16 seeds, two samplers and three channels,
-/// per-seed 3σ checks fail by chance in about one run in eight), for the
+/// each seed's within 4: with tens of seeds and three channels, per-seed 3σ
+/// checks would fail by chance), for the
 /// default stratified sampling and for independent samples; and the MSE
 /// falls as 1/N (the error variance of an unbiased
 /// estimator of independent samples; a plateau would be bias): with
 /// independent samples, the MSE at 4N spp minus the reference's own noise is
-/// 0.2–0.3 of that at N, or within three standard errors of 1/4 where the
-/// seeds' spread says the ratio is not known to ±0.05 (glass caustics make
-/// the MSE heavy-tailed: on spheres.scene with 8 seeds the ratio of the
-/// means scattered from 0.19 to 0.34 across seed sets, with either
-/// sampler). (Stratified sampling converges faster than 1/N at these sample
-/// counts, so the 1/N law is checked on independent samples; the stratified
-/// MSE must not be worse.)
+/// 0.2–0.3 of that at N. The MSE of one render is a noisy, heavy-tailed
+/// figure (glass caustics: on spheres.scene with 8 seeds the ratio of the
+/// means scattered from 0.19 to 0.34 across seed sets), so the ratio is of
+/// means over enough seeds that its standard error (from the seeds' spread)
+/// is at most 0.0125: the band is then ±4 standard errors or wider, and a
+/// pass or fail is not the seeds' luck. (Stratified sampling converges
+/// faster than 1/N at these sample counts, so the 1/N law is checked on
+/// independent samples; the stratified MSE, over the first seeds, must not
+/// be worse.)
+/// Seeds on which the stratified render is also compared.
+const STRATIFIED_SEEDS: u64 = 4;
+
 fn unbiased_against_reference(name: &str, n: u32, seeds: u64) {
     let r = Reference::load(name).unwrap();
     let scene = load_scene(&r.scene_path()).unwrap();
@@ -243,7 +248,7 @@ fn unbiased_against_reference(name: &str, n: u32, seeds: u64) {
         stratified: false,
         ..Options::default()
     };
-    let (mut mse_n, mut mse_4n, mut mse_strat) = (0.0, 0.0, 0.0);
+    let (mut mse_n, mut mse_4n, mut mse_strat, mut mse_4n_first) = (0.0, 0.0, 0.0, 0.0);
     let (mut sq_n, mut sq_4n) = (0.0, 0.0);
     let mut pooled = [Pooled::default(), Pooled::default()];
     for seed in 0..seeds {
@@ -265,11 +270,7 @@ fn unbiased_against_reference(name: &str, n: u32, seeds: u64) {
             &|| {},
         )
         .unwrap();
-        let strat = render(&scene, &job(w, h, 4 * n, 3000 + seed), &|| {}).unwrap();
-        assert_eq!(
-            hi.stats.nonfinite + lo.stats.nonfinite + strat.stats.nonfinite,
-            0
-        );
+        assert_eq!(hi.stats.nonfinite + lo.stats.nonfinite, 0);
         let (e_n, e_4n) = (
             compare(&lo.image, &r.image).unwrap().mse,
             compare(&hi.image, &r.image).unwrap().mse,
@@ -278,36 +279,39 @@ fn unbiased_against_reference(name: &str, n: u32, seeds: u64) {
         mse_4n += e_4n / seeds as f64;
         sq_n += e_n * e_n / seeds as f64;
         sq_4n += e_4n * e_4n / seeds as f64;
-        mse_strat += compare(&strat.image, &r.image).unwrap().mse / seeds as f64;
-        for (p, (img, what)) in pooled
-            .iter_mut()
-            .zip([(&hi.image, "independent"), (&strat.image, "stratified")])
-        {
-            check_mean(name, what, seed, img, &r, p);
+        check_mean(name, "independent", seed, &hi.image, &r, &mut pooled[0]);
+        if seed < STRATIFIED_SEEDS {
+            let strat = render(&scene, &job(w, h, 4 * n, 3000 + seed), &|| {}).unwrap();
+            assert_eq!(strat.stats.nonfinite, 0);
+            mse_strat += compare(&strat.image, &r.image).unwrap().mse;
+            mse_4n_first += e_4n;
+            check_mean(name, "stratified", seed, &strat.image, &r, &mut pooled[1]);
         }
     }
-    for (p, what) in pooled.iter().zip(["independent", "stratified"]) {
-        p.check(name, what, seeds, &r);
-    }
+    pooled[0].check(name, "independent", seeds, &r);
+    pooled[1].check(name, "stratified", seeds.min(STRATIFIED_SEEDS), &r);
     let ratio = (mse_4n - ref_noise) / (mse_n - ref_noise);
     // relative standard errors of the two means, from the seeds' spread:
     // s/√k/m with the sample variance s² = (mean of squares − m²)·k/(k−1)
     let k = seeds as f64;
     let rel = |m: f64, sq: f64| ((sq - m * m).max(0.0) / (k - 1.0)).sqrt() / m;
     let sigma = ratio * (rel(mse_n, sq_n).powi(2) + rel(mse_4n, sq_4n).powi(2)).sqrt();
-    let band = (3.0 * sigma).max(0.05);
+    assert!(
+        sigma <= 0.0125,
+        "{name}: the ratio's standard error {sigma:.4} is too large to test 1/N: more seeds"
+    );
     eprintln!(
         "{name}: independent MSE {mse_n:.3e} at {n} spp, {mse_4n:.3e} at {} spp: ratio {ratio:.3} \
          (standard error {sigma:.3}); stratified {mse_strat:.3e}",
         4 * n
     );
     assert!(
-        (ratio - 0.25).abs() <= band,
-        "{name}: MSE ratio {ratio} (4N/N) is not ~1/4 (allowed ±{band:.3})"
+        (0.2..=0.3).contains(&ratio),
+        "{name}: MSE ratio {ratio} (4N/N) is not ~1/4"
     );
     assert!(
-        mse_strat <= mse_4n * 1.05,
-        "{name}: stratified MSE {mse_strat:e} worse than independent {mse_4n:e}"
+        mse_strat <= mse_4n_first * 1.05,
+        "{name}: stratified MSE {mse_strat:e} worse than independent {mse_4n_first:e} (first seeds)"
     );
 }
 
@@ -364,15 +368,15 @@ fn check_mean(
 
 #[test]
 fn cornell_is_unbiased() {
-    unbiased_against_reference("cornell", 16, 8);
+    unbiased_against_reference("cornell", 16, 32);
 }
 
 #[test]
 fn sphere_over_plane_is_unbiased() {
-    unbiased_against_reference("sphere-over-plane", 16, 16);
+    unbiased_against_reference("sphere-over-plane", 8, 96);
 }
 
 #[test]
 fn spheres_is_unbiased() {
-    unbiased_against_reference("spheres", 8, 16);
+    unbiased_against_reference("spheres", 4, 64);
 }
