@@ -90,7 +90,7 @@ struct RenderArgs {
     uniform: bool,
     /// Diagnostics: do the work the scene analysis would skip, to measure
     /// what a skip saves. Comma-separated: shadow-occluders, view-culling,
-    /// specialize, horizon, unreachable-lights, closed, or all.
+    /// specialize, horizon, unreachable-lights, closed, slabs, or all.
     #[arg(long, value_name = "LIST", value_parser = parse_skips)]
     no_skip: Option<Skip>,
     /// Image size WxH [default: the scene's resolution, else 64x64].
@@ -152,10 +152,11 @@ fn parse_skips(s: &str) -> Result<Skip, String> {
             "horizon" => k.horizon = false,
             "unreachable-lights" => k.unreachable_lights = false,
             "closed" => k.closed = false,
+            "slabs" => k.slabs = false,
             "all" => k = Skip::NONE,
             other => {
                 return Err(format!(
-                    "unknown skip '{other}' (shadow-occluders, view-culling, specialize, horizon, unreachable-lights, closed, all)"
+                    "unknown skip '{other}' (shadow-occluders, view-culling, specialize, horizon, unreachable-lights, closed, slabs, all)"
                 ));
             }
         }
