@@ -189,6 +189,8 @@ struct PrevVertex {
     /// next-event estimation computed it (0: it could not be sampled there).
     /// The point and normal are then never read again.
     light_omc: f32,
+    /// Whether the horizon test was done there.
+    horizon: bool,
 }
 
 /// The light chosen for next-event estimation at a vertex.
@@ -206,8 +208,11 @@ struct Ctx<'v, 'a> {
     scene: &'v SceneView<'a>,
     /// Emitters that next-event estimation samples.
     lights: &'a [u16],
-    /// Zero weight for lights entirely below the horizon.
-    horizon: bool,
+    /// Zero weight for lights entirely below the horizon of a point of a
+    /// plane (the skip is on and the scene analysis found it can happen).
+    horizon_planes: bool,
+    /// The same for points of spheres.
+    horizon_spheres: bool,
     /// The only light, looked up once per path (scenes with one light).
     one: Option<OneLight>,
 }
@@ -254,17 +259,27 @@ impl Ctx<'_, '_> {
         }
     }
 
+    /// Whether the horizon test is worth doing on `object`.
+    #[inline(always)]
+    fn horizon_at(&self, object: ObjectId) -> bool {
+        if object.as_sphere().is_some() {
+            self.horizon_spheres
+        } else {
+            self.horizon_planes
+        }
+    }
+
     /// Whether light sphere `i` can be sampled from `x` with normal `n`:
-    /// `x` outside it and (with the horizon skip) not all of it below the
+    /// `x` outside it and (with `horizon`) not all of it below the
     /// tangent plane, `n · (c − x) < −r`.
     /// Returns the vector to the centre, its squared length and the
     /// squared radius.
     #[inline(always)]
-    fn samplable(&self, x: Vec3, n: Vec3, i: usize) -> Option<(Vec3, f32, f32)> {
+    fn samplable(&self, x: Vec3, n: Vec3, i: usize, horizon: bool) -> Option<(Vec3, f32, f32)> {
         let s = self.scene.spheres.get(i)?;
         let to_c = s.center - x;
         let d2 = to_c.length_squared();
-        if !(d2 > s.radius2) || (self.horizon && n.dot(to_c) < -s.radius) {
+        if !(d2 > s.radius2) || (horizon && n.dot(to_c) < -s.radius) {
             return None;
         }
         Some((to_c, d2, s.radius2))
@@ -274,8 +289,8 @@ impl Ctx<'_, '_> {
     /// (1 − cos θ_max), i.e. radiance × subtended solid angle; 0 where it
     /// cannot be sampled.
     #[inline]
-    fn light_weight(&self, x: Vec3, n: Vec3, i: usize) -> f32 {
-        self.samplable(x, n, i).map_or(0.0, |(_, d2, r2)| {
+    fn light_weight(&self, x: Vec3, n: Vec3, i: usize, horizon: bool) -> f32 {
+        self.samplable(x, n, i, horizon).map_or(0.0, |(_, d2, r2)| {
             self.light_lum(i) * light::one_minus_cos_max(r2, d2)
         })
     }
@@ -288,6 +303,7 @@ impl Ctx<'_, '_> {
         &self,
         x: Vec3,
         n: Vec3,
+        horizon: bool,
         stream: &mut SampleStream<'_>,
     ) -> (Option<LightChoice>, f32) {
         if !MANY {
@@ -295,18 +311,20 @@ impl Ctx<'_, '_> {
                 return (None, 0.0);
             };
             let i = one as usize;
-            let c = self.samplable(x, n, i).map(|(to_c, d2, _)| LightChoice {
-                sphere: i,
-                p_sel: 1.0,
-                to_c,
-                d2,
-            });
+            let c = self
+                .samplable(x, n, i, horizon)
+                .map(|(to_c, d2, _)| LightChoice {
+                    sphere: i,
+                    p_sel: 1.0,
+                    to_c,
+                    d2,
+                });
             return (c, 1.0);
         }
         let u = stream.next_f32();
         let mut sum = 0.0;
         for &l in self.lights {
-            sum += self.light_weight(x, n, l as usize);
+            sum += self.light_weight(x, n, l as usize, horizon);
         }
         if !(sum > 0.0) {
             return (None, 0.0);
@@ -316,7 +334,7 @@ impl Ctx<'_, '_> {
         let mut chosen = None;
         for &l in self.lights {
             let i = l as usize;
-            let Some((to_c, d2, r2)) = self.samplable(x, n, i) else {
+            let Some((to_c, d2, r2)) = self.samplable(x, n, i, horizon) else {
                 continue;
             };
             let w = self.light_lum(i) * light::one_minus_cos_max(r2, d2);
@@ -353,7 +371,7 @@ impl Ctx<'_, '_> {
         if !self.lights.contains(&(i as u16)) {
             return 0.0;
         }
-        let Some((_, d2, r2)) = self.samplable(prev.point, prev.normal, i) else {
+        let Some((_, d2, r2)) = self.samplable(prev.point, prev.normal, i, prev.horizon) else {
             return 0.0;
         };
         if !MANY {
@@ -395,7 +413,8 @@ pub fn radiance(
     let ctx = Ctx {
         scene,
         lights,
-        horizon: skip.horizon,
+        horizon_planes: skip.horizon && scene.horizon_planes,
+        horizon_spheres: skip.horizon && scene.horizon_spheres,
         one: if many {
             None
         } else {
@@ -437,6 +456,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
         bsdf_pdf: 0.0,
         weight_sum: 0.0,
         light_omc: 0.0,
+        horizon: false,
     };
     // counted here and added to `stats` once per path (u64 additions are
     // four instructions each on a 32-bit core)
@@ -499,6 +519,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
                 };
                 let mut weight_sum = 0.0;
                 let mut light_omc = 0.0;
+                let horizon = ctx.horizon_at(hit.object);
                 if opts.strategy != Strategy::BsdfOnly && !ctx.lights.is_empty() {
                     // drawn before the light is chosen, so that skipping a
                     // light below the horizon never shifts the random numbers
@@ -508,7 +529,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
                         stream.next_2d()
                     };
                     if MANY {
-                        let (choice, sum) = ctx.choose_light::<MANY>(hit.point, n, stream);
+                        let (choice, sum) = ctx.choose_light::<MANY>(hit.point, n, horizon, stream);
                         weight_sum = sum;
                         if let Some(c) = choice {
                             l += direct::<MANY>(
@@ -527,7 +548,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
                         weight_sum = 1.0;
                         let to_c = one.center - hit.point;
                         let d2 = to_c.length_squared();
-                        if d2 > one.radius2 && !(ctx.horizon && n.dot(to_c) < -one.radius) {
+                        if d2 > one.radius2 && !(horizon && n.dot(to_c) < -one.radius) {
                             let c = LightChoice {
                                 sphere: one.sphere,
                                 p_sel: 1.0,
@@ -562,6 +583,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
                     bsdf_pdf: cos * math::INV_PI,
                     weight_sum,
                     light_omc,
+                    horizon,
                 };
                 // f · cos / pdf = (albedo/π) · cos / (cos/π) = albedo, exactly
                 thr *= albedo;

@@ -386,6 +386,8 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             tested_primary: a.listed_view.get(..visible).unwrap_or(&a.listed_view),
             tested_shadow: &a.listed_shadow,
             light_clear: a.light_clear,
+            horizon_planes: a.horizon_planes,
+            horizon_spheres: a.horizon_spheres,
             shadow_lights: a.listed_shadow.iter().any(|l| {
                 a.emitters
                     .iter()
@@ -435,6 +437,11 @@ pub struct SceneView<'a> {
     /// One light, and no occluder of the lists reaches into it
     /// ([`crate::analysis::Analysis::light_clear`]).
     pub light_clear: bool,
+    /// A light can lie entirely below the horizon of a point of a diffuse
+    /// plane ([`crate::analysis::Analysis::horizon_planes`]).
+    pub horizon_planes: bool,
+    /// The same for diffuse spheres.
+    pub horizon_spheres: bool,
     /// Background radiance.
     pub background: Color,
     /// No ray can escape (the background is never seen).
