@@ -380,7 +380,8 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             shadow_spheres: &a.shadow_spheres,
             shadow_planes: &a.shadow_planes,
             primary_spheres: a.view_order.get(..visible).unwrap_or(&a.view_order),
-            slabs: a.slabs,
+            // no wall at all: no slab test (three divisions a ray)
+            slabs: (a.slabs != Slabs::EMPTY).then_some(a.slabs),
             other_planes: &a.other_planes,
             tested: &a.listed_view,
             tested_primary: a.listed_view.get(..visible).unwrap_or(&a.listed_view),
@@ -420,8 +421,9 @@ pub struct SceneView<'a> {
     pub shadow_planes: &'a [u16],
     /// Spheres a camera ray can hit.
     pub primary_spheres: &'a [u16],
-    /// The walls tested one per axis ([`Slabs`]).
-    pub slabs: Slabs,
+    /// The walls tested one per axis ([`Slabs`]); `None` when the scene has
+    /// no opaque axis-aligned plane.
+    pub slabs: Option<Slabs>,
     /// The planes that are not in `slabs`.
     pub other_planes: &'a [u16],
     /// The spheres (copies with their ids) that bounce rays test, in the
@@ -579,7 +581,7 @@ impl SceneView<'_> {
     #[inline(always)]
     pub fn closest_hit_among(&self, ray: &Ray, from: ObjectId, spheres: &[Listed]) -> Option<Hit> {
         nearest(
-            Some(&self.slabs),
+            self.slabs.as_ref(),
             listed(self.other_planes, self.planes),
             spheres,
             self.planes,

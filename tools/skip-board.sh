@@ -45,7 +45,8 @@ run() {
     MICROPT_FW_SCENE="scenes/$scene.scene" MICROPT_FW_SIZE="${size:-64x64}" MICROPT_FW_SPP=$SPP \
         MICROPT_FW_SEED=0 MICROPT_FW_UNIFORM=1 MICROPT_FW_SKIP_OFF=$off \
         MICROPT_FW_OUT="$OUT/$scene.$config.rgb565" \
-        cargo build -q -p micropt --release --example firmware --features firmware --target "$TARGET"
+        cargo build -q -p micropt --release --example firmware --features firmware --target "$TARGET" ||
+        return 1
     timeout 600 qemu-system-arm -cpu cortex-m4 -machine netduinoplus2 -nographic \
         -semihosting-config enable=on,target=native -icount shift=0 \
         -plugin "$OUT/libicount.so" -d plugin -D "$OUT/$scene.$config.icount" \
@@ -61,7 +62,10 @@ if [ "${1:-}" != --table ]; then
     : >"$OUT/results.txt"
     for scene in "${SCENES[@]}"; do
         for config in "${CONFIGS[@]}"; do
-            read -r paths insns <<<"$(run "$scene" "$config")"
+            # a failed build must not measure the previous configuration's ELF
+            rm -f "$ELF"
+            result=$(run "$scene" "$config") || { echo "error: $scene $config failed" >&2; exit 1; }
+            read -r paths insns <<<"$result"
             same=no
             cmp -s "$OUT/$scene.default.rgb565" "$OUT/$scene.$config.rgb565" && same=yes
             echo "$scene $config $paths $insns $same" | tee -a "$OUT/results.txt"
