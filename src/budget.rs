@@ -30,14 +30,20 @@
 //! yet gets fewer. The mean of a pixel is therefore biased low, by a term
 //! that shrinks as the budget grows (every pixel gets at least half the even
 //! share, so every count grows without bound, and the estimates that steer
-//! the allocation converge). Measured on cornell (mean over 3 seeds, image
-//! mean 0.82): −1.24e-2 at 16 spp, −8.2e-3 at 64, −4.3e-3 at 256; on
-//! spheres: −6.3e-3, −3.0e-3, −2.0e-3. In exchange the MSE against the
-//! references is 2.2× (cornell) and 3.6× (spheres) lower at 16 spp, 1.7×
-//! and 4.1× at 64, 1.35× and 4.4× at 256. Unbiased variants were tried and
-//! measured (allocation steered only by neighbours' samples; a martingale
-//! weighting of rounds fixed before each round; one decision from a 1- or
-//! 2-sample pilot; tiles split by preview contrast): none beat uniform
+//! the allocation converge). Measured on cornell (mean over 4 seeds, image
+//! mean 0.79): −1.4e-2 at 16 spp, −9.0e-3 at 64, −4.6e-3 at 256, −1.9e-3 at
+//! 1024 (one seed); on spheres: −6.2e-3, −4.1e-3, −2.8e-3. In exchange the
+//! MSE against the references is 2.1× (cornell) and 3.7× (spheres) lower at
+//! 16 spp, 1.7× and 3.1× at 64, 1.3× and 4.9× at 256; on cornell the gain
+//! is gone by 1024 spp (1.05×): its remaining error is spread over the
+//! image, and the Sobol sampler already makes the error of its high-σ
+//! pixels (the lamp's edges) fall faster than σ²/n. A stratification-aware
+//! σ (the spread of the means of aligned blocks of 4 or 16 samples, which
+//! are nets of the scrambled Sobol sequence) was measured: 1.07× at 1024,
+//! and worse than σ at 64 with blocks of 16; not kept. Unbiased variants were
+//! tried and measured (allocation steered only by neighbours' samples; a
+//! martingale weighting of rounds fixed before each round; one decision from
+//! a 1- or 2-sample pilot; tiles split by preview contrast): none beat uniform
 //! stratified sampling on these scenes, because the Sobol sampler already
 //! removes most of the variance that is spread evenly, and what is left sits
 //! in rare bright paths that only a pixel's own samples reveal (and with

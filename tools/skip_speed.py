@@ -8,7 +8,7 @@ every configuration alike. Prints a markdown table: per scene and
 configuration, the default's M rays/s and, for a skip turned off, the speed
 that skip buys (paths/s on / paths/s off; > 1: the skip is a win).
 
-    tools/skip_speed.py [BIN] [SECONDS] [REPS]
+    [SCENES="cornell spheres"] tools/skip_speed.py [BIN] [SECONDS] [REPS]
 
 Each scene renders at the power-of-two spp that takes about SECONDS (default
 0.5) with the default options, found from one 16-spp render.
@@ -33,7 +33,10 @@ def run(scene, config, out, spp):
 print("| scene | spp | default M rays/s | " + " | ".join(CONFIGS[1:]) + " |")
 print("|---|---:|---:|" + "---:|" * (len(CONFIGS) - 1))
 with tempfile.TemporaryDirectory() as tmp:
+    only = os.environ.get("SCENES", "").split()
     for scene in sorted(f for f in os.listdir("scenes") if f.endswith(".scene")):
+        if only and scene[:-6] not in only:
+            continue
         path = f"scenes/{scene}"
         secs = run(path, "default", f"{tmp}/cal.pfm", 16)[2]
         spp = 16
@@ -41,8 +44,9 @@ with tempfile.TemporaryDirectory() as tmp:
             spp *= 2
         pps = {c: [] for c in CONFIGS}
         rays = {c: [] for c in CONFIGS}
-        for _ in range(REPS):
-            for c in CONFIGS:
+        for rnd in range(REPS):
+            # a different configuration first in each round
+            for c in CONFIGS[rnd % len(CONFIGS):] + CONFIGS[:rnd % len(CONFIGS)]:
                 p, r, _ = run(path, c, f"{tmp}/{c}.pfm", spp)
                 pps[c].append(p)
                 rays[c].append(r)
