@@ -82,7 +82,7 @@ pub fn tiles(width: u32, height: u32) -> impl Iterator<Item = Tile> + Clone {
     (0..tile_count(width, height)).filter_map(move |i| tile_at(width, height, i))
 }
 
-/// The sRGB transfer curve (linear [0,1] → encoded [0,1]).
+/// The sRGB transfer curve (linear [0, 1] → encoded [0, 1]).
 #[inline]
 pub fn srgb_encode(v: f32) -> f32 {
     if v <= 0.003_130_8 {
@@ -124,7 +124,7 @@ fn quantize(v: f32, max: u32, t: f32) -> u8 {
     math::clamp(q, 0.0, max as f32) as u8
 }
 
-/// Conversion from a tone-mapped (sRGB-encoded, [0,1]) value to a display
+/// Conversion from a tone-mapped (sRGB-encoded, [0, 1]) value to a display
 /// colour at image position (x, y).
 pub trait FromEncoded: PixelColor {
     /// The display colour of encoded `rgb` at pixel (x, y).

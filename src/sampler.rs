@@ -86,7 +86,7 @@ pub fn sobol_seeds(key: u64) -> [u32; 3] {
 /// The index is shuffled by its own scramble (so that different pairs of
 /// dimensions are decorrelated), then both dimensions are scrambled.
 ///
-/// With `rev` = bit reversal and `lk` = [`lk_permute`], the definition is
+/// With `rev` = bit reversal and `lk` = `lk_permute`, the definition is
 /// `shuffled = rev(lk(rev(index)))`, `x = rev(shuffled)`,
 /// `y = rev(sobol2_unreversed(shuffled))`, each output `rev(lk(rev(·)))`.
 /// The reversals that cancel are left out: four remain instead of nine, and

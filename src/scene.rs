@@ -180,7 +180,7 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         }
     }
 
-    /// Adds a material after checking its values (albedo and tint in [0,1],
+    /// Adds a material after checking its values (albedo and tint in [0, 1],
     /// IOR > 0, radiance ≥ 0). A mirror or glass material in a build without
     /// its cargo feature is [`SceneError::MaterialNotBuilt`]: the renderer
     /// has no code for it.
