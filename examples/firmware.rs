@@ -70,8 +70,6 @@ const EXPOSURE: f32 = 1.0;
 const CORE_HZ: u32 = 168_000_000;
 
 type FirmwareScene = Scene<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>;
-/// Static storage for the scene.
-type SceneSlot = heapless::Vec<FirmwareScene, 1>;
 type Fb =
     Framebuffer<Rgb565, RawU16, BigEndian, WIDTH, HEIGHT, { buffer_size::<Rgb565>(WIDTH, HEIGHT) }>;
 
@@ -83,7 +81,6 @@ enum Error {
     Scene(micropt::SceneError),
     Camera,
     Peripherals,
-    SceneSlot,
     SqrtMismatch {
         input: u32,
         fpu: u32,
@@ -99,10 +96,10 @@ fn main() -> ! {
     // `#[entry]` (no `unsafe`, no panicking singleton).
     static mut FRAMEBUFFER: Fb = Fb::new();
     static mut ACCUM: TileAccum = TileAccum::new();
-    // an empty one-slot Vec is all zeros: it goes to .bss, where an
-    // `Option<Scene>::None` (a non-zero niche) would put the whole scene's
-    // size in .data, and so in flash
-    static mut SCENE: SceneSlot = SceneSlot::new();
+    // `Scene::EMPTY` is all zeros: it goes to .bss (where an
+    // `Option<Scene>::None`, a non-zero niche, would put the whole scene's
+    // size in .data, and so in flash); the scene is parsed into it in place
+    static mut SCENE: FirmwareScene = FirmwareScene::EMPTY;
 
     mark(); // start of main: reset handler, stack paint and RAM init done
     let status = match run(FRAMEBUFFER, ACCUM, SCENE) {
@@ -118,16 +115,13 @@ fn main() -> ! {
     }
 }
 
-/// The scene: parsed from the embedded file, into `slot`. (Not inlined:
-/// the parser's stack, and the scene it returns by value, are not live
-/// during the render.)
+/// The scene: parsed from the embedded file, in place into `slot`. (Not
+/// inlined: the parser's stack is not live during the render.)
 #[cfg(feature = "parser")]
 #[inline(never)]
-fn load_scene(slot: &'static mut SceneSlot) -> Result<&'static FirmwareScene, Error> {
-    let scene =
-        micropt::parse::parse_with_capacity::<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>(SCENE_TEXT)
-            .map_err(Error::Parse)?;
-    keep(slot, scene)
+fn load_scene(slot: &'static mut FirmwareScene) -> Result<&'static FirmwareScene, Error> {
+    micropt::parse::parse_into(SCENE_TEXT, slot).map_err(Error::Parse)?;
+    Ok(slot)
 }
 
 /// The scene: `scenes/cornell.scene`, built in code (no parser in the
@@ -135,9 +129,9 @@ fn load_scene(slot: &'static mut SceneSlot) -> Result<&'static FirmwareScene, Er
 /// same bits.
 #[cfg(not(feature = "parser"))]
 #[inline(never)]
-fn load_scene(slot: &'static mut SceneSlot) -> Result<&'static FirmwareScene, Error> {
+fn load_scene(slot: &'static mut FirmwareScene) -> Result<&'static FirmwareScene, Error> {
     use micropt::{CameraSpec, Material, SceneBuilder, Vec3};
-    let build = || -> Result<FirmwareScene, micropt::SceneError> {
+    let build = |slot: &mut FirmwareScene| -> Result<(), micropt::SceneError> {
         let mut b = SceneBuilder::<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>::new();
         b.camera(CameraSpec {
             eye: Vec3::new(0.5, 0.5, 0.98),
@@ -162,26 +156,16 @@ fn load_scene(slot: &'static mut SceneSlot) -> Result<&'static FirmwareScene, Er
         b.sphere(v(0.5, 0.85, 0.4), 0.08, lamp)?;
         b.sphere(v(0.3, 0.2, 0.35), 0.2, chrome)?;
         b.sphere(v(0.72, 0.15, 0.6), 0.15, matte)?;
-        b.build()
+        b.build_into(slot)
     };
-    keep(slot, build().map_err(Error::Scene)?)
-}
-
-/// Moves `scene` into the static `slot`.
-fn keep(
-    slot: &'static mut SceneSlot,
-    scene: FirmwareScene,
-) -> Result<&'static FirmwareScene, Error> {
-    slot.clear();
-    slot.push(scene).map_err(|_| Error::SceneSlot)?;
-    let slot: &'static SceneSlot = slot;
-    slot.first().ok_or(Error::SceneSlot)
+    build(slot).map_err(Error::Scene)?;
+    Ok(slot)
 }
 
 fn run(
     fb: &'static mut Fb,
     acc: &'static mut TileAccum,
-    scene_slot: &'static mut SceneSlot,
+    scene_slot: &'static mut FirmwareScene,
 ) -> Result<(), Error> {
     check_fpu_sqrt()?;
     let mut clock = match cortex_m::Peripherals::take() {
@@ -418,7 +402,6 @@ fn report(e: &Error) {
         Error::Scene(e) => writeln!(o, "the scene built in code: {e}"),
         Error::Camera => o.write_str("invalid camera for the image size\n"),
         Error::Peripherals => o.write_str("core peripherals already taken\n"),
-        Error::SceneSlot => o.write_str("the scene's static slot is in use\n"),
         Error::SqrtMismatch { input, fpu, libm } => writeln!(
             o,
             "vsqrt.f32 differs from libm::sqrtf: sqrt({input:#010x}) = {fpu:#010x}, libm {libm:#010x}"

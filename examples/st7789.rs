@@ -79,8 +79,8 @@ fn main() -> ! {
     // static memory, handed out once as `&'static mut` by `#[entry]`
     static mut SPI_BUFFER: [u8; 512] = [0; 512];
     static mut ACCUM: TileAccum = TileAccum::new();
-    // an empty one-slot Vec is all zeros (.bss, not flash)
-    static mut SCENE: heapless::Vec<BoardScene, 1> = heapless::Vec::new();
+    // `Scene::EMPTY` is all zeros (.bss, not flash); parsed into in place
+    static mut SCENE: BoardScene = BoardScene::EMPTY;
 
     let (Some(dp), Some(cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         halt()
@@ -120,16 +120,11 @@ fn main() -> ! {
     // SysTick did the panel's reset delays; now it is the render's clock
     let mut clock = systick::SysTickClock::start(delay.release().release(), CORE_HZ);
 
-    let Ok(scene) = micropt::parse::parse_with_capacity(SCENE_TEXT) else {
-        halt()
-    };
-    if SCENE.push(scene).is_err() {
+    // parsed in place into static memory: the stack holds only the parser
+    if micropt::parse::parse_into(SCENE_TEXT, SCENE).is_err() {
         halt()
     }
-    let scene: &BoardScene = match SCENE.first() {
-        Some(s) => s,
-        None => halt(),
-    };
+    let scene: &BoardScene = SCENE;
     let Ok(renderer) = Renderer::new(scene, WIDTH, HEIGHT) else {
         halt()
     };

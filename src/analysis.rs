@@ -94,6 +94,33 @@ pub struct Analysis<const S: usize, const P: usize> {
     pub horizon_spheres: bool,
 }
 
+impl<const S: usize, const P: usize> Analysis<S, P> {
+    /// The analysis of a scene without objects or camera, all zero bits (so
+    /// that a `static` holding it goes to `.bss`): what [`analyse_into`]
+    /// overwrites. Its `slabs` are zeros, not [`Slabs::EMPTY`]: they are
+    /// never used, since a scene without a camera is never rendered.
+    pub const EMPTY: Self = Self {
+        lights: Vec::new(),
+        emitters: Vec::new(),
+        shadow_spheres: Vec::new(),
+        shadow_planes: Vec::new(),
+        view_order: Vec::new(),
+        view_keys: Vec::new(),
+        closed: false,
+        specular: false,
+        slabs: Slabs {
+            c: [[0.0; 2]; 3],
+            id: [[ObjectId::sphere(0); 2]; 3],
+        },
+        other_planes: Vec::new(),
+        listed_view: Vec::new(),
+        listed_shadow: Vec::new(),
+        light_clear: false,
+        horizon_planes: false,
+        horizon_spheres: false,
+    };
+}
+
 /// A sphere as the ray queries test it: a copy next to its id, so that a
 /// loop over a list reads neither an index nor a second array.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -107,8 +134,8 @@ pub struct Listed {
 /// The spheres named by `ids`, copied with their ids (a push loop:
 /// heapless' `collect` keeps a panic branch that the firmware's panic-never
 /// link rejects).
-fn listed<const S: usize>(spheres: &[Sphere], ids: &[u16]) -> Vec<Listed, S> {
-    let mut out = Vec::new();
+fn listed<const S: usize>(spheres: &[Sphere], ids: &[u16], out: &mut Vec<Listed, S>) {
+    out.clear();
     for &i in ids {
         if let Some(&sphere) = spheres.get(i as usize) {
             // at most as many entries as `ids`, whose capacity is S too
@@ -118,7 +145,6 @@ fn listed<const S: usize>(spheres: &[Sphere], ids: &[u16]) -> Vec<Listed, S> {
             });
         }
     }
-    out
 }
 
 /// Per axis, the opaque axis-aligned planes nearest the camera below and
@@ -176,7 +202,8 @@ fn slabs<const P: usize>(
     planes: &[Plane],
     materials: &[Material],
     eye: Vec3,
-) -> (Slabs, Vec<u16, P>) {
+    other: &mut Vec<u16, P>,
+) -> Slabs {
     let mut sl = Slabs::EMPTY;
     let e = [eye.x, eye.y, eye.z];
     // the chosen plane of [axis][side], side 0 above the eye, 1 below
@@ -208,13 +235,13 @@ fn slabs<const P: usize>(
             }
         }
     }
-    let mut other: Vec<u16, P> = Vec::new();
+    other.clear();
     for i in 0..planes.len() {
         if !chosen.iter().flatten().any(|&c| c == Some(i)) {
             let _ = other.push(i as u16);
         }
     }
-    (sl, other)
+    sl
 }
 
 fn is_opaque(materials: &[Material], m: u16) -> bool {
@@ -261,6 +288,43 @@ pub fn analyse<const S: usize, const P: usize>(
     materials: &[Material],
     camera: &CameraSpec,
 ) -> Analysis<S, P> {
+    let mut out = Analysis::EMPTY;
+    analyse_into(&mut out, spheres, planes, materials, camera);
+    out
+}
+
+/// [`analyse`] into `out` (every field rewritten), in place: no copy of
+/// the analysis on the stack (the firmware builds its scene this way).
+pub fn analyse_into<const S: usize, const P: usize>(
+    out: &mut Analysis<S, P>,
+    spheres: &[Sphere],
+    planes: &[Plane],
+    materials: &[Material],
+    camera: &CameraSpec,
+) {
+    let Analysis {
+        lights,
+        emitters,
+        shadow_spheres,
+        shadow_planes,
+        view_order,
+        view_keys,
+        closed: closed_out,
+        specular: specular_out,
+        slabs: slabs_out,
+        other_planes,
+        listed_view,
+        listed_shadow,
+        light_clear: light_clear_out,
+        horizon_planes: horizon_planes_out,
+        horizon_spheres: horizon_spheres_out,
+    } = out;
+    lights.clear();
+    emitters.clear();
+    shadow_spheres.clear();
+    shadow_planes.clear();
+    view_order.clear();
+    view_keys.clear();
     let eye = camera.eye;
     // which side of each opaque plane the camera is on (0: on the plane)
     let side = |pl: &Plane| {
@@ -287,8 +351,6 @@ pub fn analyse<const S: usize, const P: usize>(
     let opaque_spheres = || spheres.iter().filter(|s| is_opaque(materials, s.material));
 
     // reachable emitters
-    let mut lights: Vec<u16, S> = Vec::new();
-    let mut emitters: Vec<u16, S> = Vec::new();
     for (i, l) in spheres.iter().enumerate() {
         let emits = matches!(materials.get(l.material as usize), Some(Material::Light(le)) if le.max_component() > 0.0);
         if !emits {
@@ -308,7 +370,6 @@ pub fn analyse<const S: usize, const P: usize>(
     let reachable = || lights.iter().filter_map(|&i| spheres.get(i as usize));
 
     // shadow-ray occluders
-    let mut shadow_planes: Vec<u16, P> = Vec::new();
     for (i, p) in planes.iter().enumerate() {
         let skip =
             is_opaque(materials, p.material) && reachable().all(|l| light_on_camera_side(p, l));
@@ -316,7 +377,6 @@ pub fn analyse<const S: usize, const P: usize>(
             let _ = shadow_planes.push(i as u16);
         }
     }
-    let mut shadow_spheres: Vec<u16, S> = Vec::new();
     for (i, q) in spheres.iter().enumerate() {
         let the_only_light = lights.len() == 1 && lights.first() == Some(&(i as u16));
         let skip = the_only_light
@@ -370,8 +430,6 @@ pub fn analyse<const S: usize, const P: usize>(
             }
         }
     }
-    let mut view_order: Vec<u16, S> = Vec::new();
-    let mut view_keys: Vec<f32, S> = Vec::new();
     for &(k, i) in order.iter() {
         // as many entries as `order`, whose capacity is S too
         let _ = view_order.push(i);
@@ -416,27 +474,14 @@ pub fn analyse<const S: usize, const P: usize>(
     let horizon_spheres = spheres.iter().filter(|q| is_diffuse(q.material)).any(|q| {
         !(point_inside(eye, q) && emitting().all(|l| !core::ptr::eq(q, l) && sphere_inside(l, q)))
     });
-    let (slabs, other_planes) = slabs(planes, materials, eye);
-    let listed_view = listed(spheres, &view_order);
-    let listed_shadow = listed(spheres, &shadow_spheres);
-
-    Analysis {
-        lights,
-        emitters,
-        shadow_spheres,
-        shadow_planes,
-        view_order,
-        view_keys,
-        closed,
-        specular,
-        slabs,
-        other_planes,
-        listed_view,
-        listed_shadow,
-        light_clear,
-        horizon_planes,
-        horizon_spheres,
-    }
+    *slabs_out = slabs(planes, materials, eye, other_planes);
+    listed(spheres, view_order, listed_view);
+    listed(spheres, shadow_spheres, listed_shadow);
+    *closed_out = closed;
+    *specular_out = specular;
+    *light_clear_out = light_clear;
+    *horizon_planes_out = horizon_planes;
+    *horizon_spheres_out = horizon_spheres;
 }
 
 /// Whether the opaque planes enclose `eye`: the cone of directions `v` with

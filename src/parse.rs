@@ -316,6 +316,36 @@ pub fn parse_bytes(bytes: &[u8]) -> Result<Scene, ParseError> {
 pub fn parse_bytes_with_capacity<const S: usize, const P: usize, const M: usize>(
     bytes: &[u8],
 ) -> Result<Scene<S, P, M>, ParseError> {
+    let mut scene = Scene::EMPTY;
+    parse_bytes_into(bytes, &mut scene)?;
+    Ok(scene)
+}
+
+/// Parses a scene from text into `scene` (all of it replaced; unchanged on
+/// error), in place: only the parser's scene builder is on the stack, never
+/// the scene and its analysis, so a board parses a scene held in static
+/// memory in a stack of about the builder's size.
+///
+/// ```
+/// use micropt::Scene;
+/// static TEXT: &str = "camera 0 0 4  0 0 0  0 1 0  40\nmaterial g diffuse 0.5 0.5 0.5\nsphere 0 0 0 1 g\n";
+/// let mut scene: Scene<4, 2, 4> = Scene::EMPTY;
+/// micropt::parse::parse_into(TEXT, &mut scene)?;
+/// assert_eq!(scene.spheres().len(), 1);
+/// # Ok::<(), micropt::parse::ParseError>(())
+/// ```
+pub fn parse_into<const S: usize, const P: usize, const M: usize>(
+    text: &str,
+    scene: &mut Scene<S, P, M>,
+) -> Result<(), ParseError> {
+    parse_bytes_into(text.as_bytes(), scene)
+}
+
+/// [`parse_into`] from raw bytes.
+pub fn parse_bytes_into<const S: usize, const P: usize, const M: usize>(
+    bytes: &[u8],
+    scene: &mut Scene<S, P, M>,
+) -> Result<(), ParseError> {
     let mut p: Parser<'_, S, P, M> = Parser {
         builder: SceneBuilder::new(),
         names: Vec::new(),
@@ -338,7 +368,7 @@ pub fn parse_bytes_with_capacity<const S: usize, const P: usize, const M: usize>
     if bytes.last() == Some(&b'\n') {
         line_no = line_no.saturating_sub(1).max(1);
     }
-    p.builder.build().map_err(|e| ParseError {
+    p.builder.build_into(scene).map_err(|e| ParseError {
         line: line_no.max(1),
         kind: match e {
             SceneError::NoCamera => ParseErrorKind::MissingCamera,
@@ -350,6 +380,32 @@ pub fn parse_bytes_with_capacity<const S: usize, const P: usize, const M: usize>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// In-place parsing gives the same scene as parsing by value, and a
+    /// failed parse leaves the slot as it was. (Cornell has a mirror.)
+    #[cfg(feature = "mirror")]
+    #[test]
+    fn parse_into_fills_the_slot_and_keeps_it_on_error() {
+        let text = include_str!("../scenes/cornell.scene");
+        let by_value: Scene<8, 8, 8> = parse_with_capacity(text).unwrap();
+        let mut slot: Scene<8, 8, 8> = Scene::EMPTY;
+        parse_into(text, &mut slot).unwrap();
+        assert_eq!(slot.spheres(), by_value.spheres());
+        assert_eq!(slot.planes(), by_value.planes());
+        assert_eq!(slot.materials(), by_value.materials());
+        assert_eq!(slot.lights(), by_value.lights());
+        assert_eq!(slot.analysis().view_order, by_value.analysis().view_order);
+        assert_eq!(slot.analysis().slabs, by_value.analysis().slabs);
+        let err = parse_into(
+            "camera 0 0 4 0 0 0 0 1 0 40\nsphere 0 0 0 1 nope\n",
+            &mut slot,
+        );
+        assert_eq!(err.map_err(|e| e.line), Err(2));
+        assert_eq!(slot.spheres(), by_value.spheres());
+        // a slot re-parsed with another scene holds only that one
+        parse_into("camera 0 0 4 0 0 0 0 1 0 40\n", &mut slot).unwrap();
+        assert!(slot.spheres().is_empty() && slot.lights().is_empty());
+    }
 
     /// A scene with a material this build has no code for is an error at
     /// the material's line, never a silently different image (`cargo test

@@ -1,7 +1,7 @@
 //! The fixed-capacity scene: objects, materials, lights, camera, validated
 //! on construction, and the two ray queries (closest hit, occlusion).
 
-use crate::analysis::{Analysis, Listed, Slabs, analyse};
+use crate::analysis::{Analysis, Listed, Slabs, analyse_into};
 use crate::camera::{CameraError, CameraSpec};
 use crate::geometry::{Color, Hit, ObjectId, Plane, Ray, Sphere, Vec3};
 use crate::material::Material;
@@ -307,21 +307,56 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
     /// Finishes the scene: requires a camera, and analyses what work the
     /// scene can never need ([`crate::analysis`]).
     pub fn build(self) -> Result<Scene<S, P, M>, SceneError> {
+        let mut scene = Scene::EMPTY;
+        self.build_into(&mut scene)?;
+        Ok(scene)
+    }
+
+    /// [`SceneBuilder::build`] into `scene` (all of it replaced; unchanged
+    /// on error), in place: the scene is never on the stack, only this
+    /// builder. With `scene` in static memory (e.g. a `static` initialised
+    /// with [`Scene::EMPTY`]) a board builds a large scene in a stack of
+    /// about the builder's size.
+    pub fn build_into(self, scene: &mut Scene<S, P, M>) -> Result<(), SceneError> {
         let camera = self.camera.ok_or(SceneError::NoCamera)?;
-        let analysis = analyse(&self.spheres, &self.planes, &self.materials, &camera);
-        Ok(Scene {
-            spheres: self.spheres,
-            planes: self.planes,
-            materials: self.materials,
-            analysis,
-            background: self.background,
-            camera,
-            resolution: self.resolution,
-        })
+        scene.spheres = self.spheres;
+        scene.planes = self.planes;
+        scene.materials = self.materials;
+        scene.background = self.background;
+        scene.camera = camera;
+        scene.resolution = self.resolution;
+        analyse_into(
+            &mut scene.analysis,
+            &scene.spheres,
+            &scene.planes,
+            &scene.materials,
+            &scene.camera,
+        );
+        Ok(())
     }
 }
 
 impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
+    /// A scene without objects and without a camera, all zero bits: the
+    /// slot that [`SceneBuilder::build_into`] and
+    /// [`parse_into`](crate::parse::parse_into) fill in place (a `static`
+    /// initialised with it goes to `.bss`). It cannot be rendered:
+    /// [`Renderer::new`](crate::Renderer::new) refuses its camera.
+    pub const EMPTY: Self = Self {
+        spheres: Vec::new(),
+        planes: Vec::new(),
+        materials: Vec::new(),
+        analysis: Analysis::EMPTY,
+        background: Color::ZERO,
+        camera: CameraSpec {
+            eye: Vec3::ZERO,
+            target: Vec3::ZERO,
+            up: Vec3::ZERO,
+            vfov_deg: 0.0,
+        },
+        resolution: None,
+    };
+
     /// The spheres.
     pub fn spheres(&self) -> &[Sphere] {
         &self.spheres
