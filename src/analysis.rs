@@ -39,8 +39,11 @@
 //!   camera (shading faces the side the path is on, the camera's). With every
 //!   light entirely on the camera's side of every diffuse plane, the horizon
 //!   test is never done on planes ([`Analysis::horizon_planes`]); likewise on
-//!   spheres when every diffuse sphere contains the camera and every light
-//!   (from inside a ball, every point of it is above the horizon).
+//!   spheres when every diffuse sphere contains the camera and no light lies
+//!   entirely outside it (from inside a ball of radius R, a light of radius
+//!   r at distance d from its centre sets below some point's horizon only if
+//!   d > R + r: smallpt's walls, balls of radius 1e5 that its lamp pokes
+//!   into, never hide it).
 
 use crate::camera::CameraSpec;
 use crate::geometry::{ObjectId, Plane, Sphere, Vec3};
@@ -471,8 +474,20 @@ pub fn analyse_into<const S: usize, const P: usize>(
         .iter()
         .filter(|p| is_diffuse(p.material))
         .any(|p| emitting().any(|l| !light_on_camera_side(p, l)));
+    // from inside ball q (inward normal n at p = o + R·u is −u) a light of
+    // centre c and radius r sets below p's horizon where
+    // n·(c − p) = R − u·(c − o) < −r: for some p iff |c − o| > R + r, i.e.
+    // only a light entirely outside the ball. (A wrong answer here costs
+    // time, never correctness: a light below the horizon contributes zero
+    // either way, so the tolerances are rounding ones, not MARGIN: smallpt's camera
+    // is 2 units inside a ball of radius 1e5.)
+    let sets_inside = |q: &Sphere, l: &Sphere| {
+        let d = (l.center - q.center).length();
+        d > (q.radius + l.radius) * (1.0 - 1e-6)
+    };
+    let eye_inside = |q: &Sphere| (eye - q.center).length() < q.radius * (1.0 - 1e-6);
     let horizon_spheres = spheres.iter().filter(|q| is_diffuse(q.material)).any(|q| {
-        !(point_inside(eye, q) && emitting().all(|l| !core::ptr::eq(q, l) && sphere_inside(l, q)))
+        !(eye_inside(q) && emitting().all(|l| !core::ptr::eq(q, l) && !sets_inside(q, l)))
     });
     *slabs_out = slabs(planes, materials, eye, other_planes);
     listed(spheres, view_order, listed_view);
@@ -645,5 +660,15 @@ sphere 0 5 0 1 l
         // the camera outside it: its far side can face away from the light
         let s = parse(&dome.replace("camera 0 0 0", "camera 0 0 20")).unwrap();
         assert!(s.analysis().horizon_spheres);
+        // inside the dome with the light entirely outside it: it can set
+        let s = parse(&dome.replace("sphere 0 5 0 1 l", "sphere 0 12 0 1 l")).unwrap();
+        assert!(s.analysis().horizon_spheres);
+        // smallpt: the camera is inside all six wall balls, and its lamp
+        // pokes into each of them (0.27 units into the ceiling's)
+        let a = parse(include_str!("../scenes/smallpt.scene"))
+            .unwrap()
+            .analysis()
+            .clone();
+        assert!(!a.horizon_planes && !a.horizon_spheres);
     }
 }
