@@ -705,7 +705,9 @@ fn nee<const MANY: bool>(
     *shadows += 1;
     let shadow = hit.spawn_on(n, ls.dir);
     let target = ObjectId::sphere(c.sphere);
-    let blocked = if lists {
+    let blocked = if lists && MANY {
+        scene.occluded_outlined(&shadow, ls.dist, hit.object, target)
+    } else if lists {
         scene.occluded(&shadow, ls.dist, hit.object, target)
     } else {
         scene.occluded_by_any(&shadow, ls.dist, hit.object, target)
