@@ -269,6 +269,36 @@ impl SampleStream<'_> {
     }
 }
 
+/// The independent part of a sample's stream as a `rand_core` generator,
+/// for code that takes any [`rand_core::Rng`] (the same numbers as
+/// [`SampleStream::next_u32`]).
+///
+/// ```
+/// use micropt::sampler::{PixelSampler, pixel_key};
+/// use rand_core::Rng;
+/// let pixel = PixelSampler::new(pixel_key(7, 3, 4));
+/// let (mut a, mut b) = (pixel.stream(5), pixel.stream(5));
+/// assert_eq!(Rng::next_u32(&mut a), b.next_u32());
+/// ```
+impl rand_core::TryRng for SampleStream<'_> {
+    type Error = rand_core::Infallible;
+
+    #[inline]
+    fn try_next_u32(&mut self) -> Result<u32, Self::Error> {
+        Ok(SampleStream::next_u32(self))
+    }
+
+    #[inline]
+    fn try_next_u64(&mut self) -> Result<u64, Self::Error> {
+        rand_core::utils::next_u64_via_u32(self)
+    }
+
+    #[inline]
+    fn try_fill_bytes(&mut self, dst: &mut [u8]) -> Result<(), Self::Error> {
+        rand_core::utils::fill_bytes_via_next_word(dst, || self.try_next_u32())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
