@@ -284,20 +284,9 @@ fn point_outside(p: Vec3, s: &Sphere) -> bool {
     d > s.radius * (1.0 + MARGIN) + MARGIN * s.center.abs().max_component()
 }
 
-/// Analyses a scene's arrays (see the module docs).
-pub fn analyse<const S: usize, const P: usize>(
-    spheres: &[Sphere],
-    planes: &[Plane],
-    materials: &[Material],
-    camera: &CameraSpec,
-) -> Analysis<S, P> {
-    let mut out = Analysis::EMPTY;
-    analyse_into(&mut out, spheres, planes, materials, camera);
-    out
-}
-
-/// [`analyse`] into `out` (every field rewritten), in place: no copy of
-/// the analysis on the stack (the firmware builds its scene this way).
+/// Analyses a scene's arrays (see the module docs) into `out`, every field
+/// rewritten, in place: the analysis is never on the stack (the firmware
+/// builds its scene in static memory this way).
 pub fn analyse_into<const S: usize, const P: usize>(
     out: &mut Analysis<S, P>,
     spheres: &[Sphere],
