@@ -34,12 +34,22 @@ pub fn scenes_dir() -> PathBuf {
 
 /// Names of all scenes that have a reference, sorted.
 pub fn names() -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(data_dir())
+    stems(&data_dir(), "pfm")
+}
+
+/// Names of all shipped scenes (`scenes/*.scene`), sorted.
+pub fn shipped_scenes() -> Vec<String> {
+    stems(&scenes_dir(), "scene")
+}
+
+/// The stems of the files in `dir` with extension `ext`, sorted.
+fn stems(dir: &Path, ext: &str) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
         .map(|d| {
             d.filter_map(|e| e.ok())
                 .filter_map(|e| {
                     let p = e.path();
-                    if p.extension()? == "pfm" {
+                    if p.extension()? == ext {
                         Some(p.file_stem()?.to_string_lossy().into_owned())
                     } else {
                         None

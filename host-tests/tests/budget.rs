@@ -14,6 +14,9 @@ use micropt_host::metrics::compare;
 use micropt_host::reference::{Reference, scenes_dir};
 use micropt_host::render::{BudgetJob, RenderJob, load_scene, render, render_budget};
 
+/// The Rgb565 framebuffer of the board executor's 48×32 renders.
+type Fb48x32 = Framebuffer<Rgb565, RawU16, BigEndian, 48, 32, { buffer_size::<Rgb565>(48, 32) }>;
+
 fn scene(name: &str) -> Scene {
     load_scene(&scenes_dir().join(format!("{name}.scene"))).unwrap()
 }
@@ -133,14 +136,7 @@ fn a_deadline_stops_within_one_batch_and_leaves_a_complete_image() {
     let mut acc = TileAccum::new();
     for deadline_looks in [3u64, 10, 40, 200] {
         let mut clock = LookClock { looks: 0 };
-        let mut fb = Framebuffer::<
-            Rgb565,
-            RawU16,
-            BigEndian,
-            48,
-            32,
-            { buffer_size::<Rgb565>(48, 32) },
-        >::new();
+        let mut fb = Fb48x32::new();
         let sum = core_render_budget(
             &r,
             Budget::Deadline(deadline_looks),
@@ -180,14 +176,7 @@ fn sample_budgets_are_deterministic_across_runs_threads_and_executors() {
         // same Rgb565 pixels
         let r = Renderer::new(&s, 48, 32).unwrap().seed(9);
         let mut acc = TileAccum::new();
-        let mut fb = Framebuffer::<
-            Rgb565,
-            RawU16,
-            BigEndian,
-            48,
-            32,
-            { buffer_size::<Rgb565>(48, 32) },
-        >::new();
+        let mut fb = Fb48x32::new();
         let mut clock = LookClock { looks: 0 };
         let sum = core_render_budget(
             &r,
@@ -326,13 +315,7 @@ fn plain_pfm(s: &Scene, w: u32, h: u32, o: Options) -> Vec<u8> {
 /// checked within noise.
 #[test]
 fn estimator_preserving_skips_change_no_bit() {
-    for name in [
-        "cornell",
-        "sphere-over-plane",
-        "smallpt",
-        "spheres",
-        "furnace",
-    ] {
+    for name in &micropt_host::reference::shipped_scenes() {
         let s = scene(name);
         let (w, h) = (40, 30);
         let all = plain_pfm(&s, w, h, Options::default());

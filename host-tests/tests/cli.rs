@@ -77,33 +77,27 @@ fn renders_png_pfm_and_rgb565_with_json() {
     let bytes = std::fs::read(&png).unwrap();
     assert_eq!(&bytes[1..4], b"PNG");
 
+    // furnace at 8x6, 1 spp, into `out` (its extension picks the format)
+    let render_small = |out: &PathBuf| {
+        let o = run(&[
+            "render",
+            scene("furnace.scene").to_str().unwrap(),
+            "--spp",
+            "1",
+            "--size",
+            "8x6",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success());
+    };
     let pfm = tmp("c.pfm");
-    let out = run(&[
-        "render",
-        scene("furnace.scene").to_str().unwrap(),
-        "--spp",
-        "1",
-        "--size",
-        "8x6",
-        "-o",
-        pfm.to_str().unwrap(),
-    ]);
-    assert!(out.status.success());
+    render_small(&pfm);
     let img = micropt_host::Image::load_pfm(&pfm).unwrap();
     assert_eq!((img.width, img.height), (8, 6));
 
     let raw = tmp("c.rgb565");
-    let out = run(&[
-        "render",
-        scene("furnace.scene").to_str().unwrap(),
-        "--spp",
-        "1",
-        "--size",
-        "8x6",
-        "-o",
-        raw.to_str().unwrap(),
-    ]);
-    assert!(out.status.success());
+    render_small(&raw);
     assert_eq!(std::fs::read(&raw).unwrap().len(), 8 * 6 * 2);
 }
 

@@ -22,35 +22,34 @@ fn sqrt_is_correctly_rounded_and_equals_libm() {
     assert!(math::sqrt(-1.0).is_nan());
 }
 
-#[test]
-fn sincos_turns_within_2_ulp_of_one() {
+/// The largest absolute error of f32 `(sin, cos)` pairs against the exact
+/// values at angles `a` (radians), in units of ulp(1) (values cross zero).
+fn worst_sincos_ulp1(pairs: impl Iterator<Item = ((f32, f32), f64)>) -> f64 {
     let mut worst = 0.0f64;
-    for i in 0..1_000_000u32 {
-        let t = i as f32 / 1_000_000.0;
-        let (s, c) = math::sincos_turns(t);
-        let a = f64::from(t) * std::f64::consts::TAU;
-        // absolute error in units of ulp(1): values cross zero
+    for ((s, c), a) in pairs {
         worst = worst
             .max((f64::from(s) - a.sin()).abs())
             .max((f64::from(c) - a.cos()).abs());
     }
-    let worst = worst / f64::from(f32::EPSILON);
+    worst / f64::from(f32::EPSILON)
+}
+
+#[test]
+fn sincos_turns_within_2_ulp_of_one() {
+    let worst = worst_sincos_ulp1((0..1_000_000u32).map(|i| {
+        let t = i as f32 / 1_000_000.0;
+        (math::sincos_turns(t), f64::from(t) * std::f64::consts::TAU)
+    }));
     assert!(worst <= 2.0, "worst {worst} ulp(1)");
 }
 
 #[test]
 fn sincos_quarter_within_2_ulp_of_one() {
-    let mut worst = 0.0f64;
     let q = std::f64::consts::FRAC_PI_4;
-    for i in -500_000..=500_000i32 {
+    let worst = worst_sincos_ulp1((-500_000..=500_000i32).map(|i| {
         let x = (f64::from(i) / 500_000.0 * q) as f32;
-        let (s, c) = math::sincos_quarter(x);
-        let a = f64::from(x);
-        worst = worst
-            .max((f64::from(s) - a.sin()).abs())
-            .max((f64::from(c) - a.cos()).abs());
-    }
-    let worst = worst / f64::from(f32::EPSILON);
+        (math::sincos_quarter(x), f64::from(x))
+    }));
     assert!(worst <= 2.0, "worst {worst} ulp(1)");
 }
 

@@ -23,14 +23,20 @@ fn err_after_camera(body: &str) -> ParseError {
 
 #[test]
 fn all_shared_scenes_parse() {
-    for name in [
-        "cornell",
-        "furnace",
-        "smallpt",
-        "sphere-over-plane",
-        "spheres",
-    ] {
-        let path = format!("{}/../scenes/{name}.scene", env!("CARGO_MANIFEST_DIR"));
+    let names = micropt_host::reference::shipped_scenes();
+    // the other tests that go over every shipped scene take this list
+    assert_eq!(
+        names,
+        [
+            "cornell",
+            "furnace",
+            "smallpt",
+            "sphere-over-plane",
+            "spheres"
+        ]
+    );
+    for name in &names {
+        let path = micropt_host::reference::scenes_dir().join(format!("{name}.scene"));
         let text = std::fs::read_to_string(&path).unwrap();
         let s = parse(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(s.resolution().is_some(), "{name}");

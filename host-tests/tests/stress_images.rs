@@ -189,13 +189,7 @@ fn radiance_is_invariant_under_scale_and_translation() {
     ];
     let mut worst: f64 = 0.0;
     let mut failures = Vec::new();
-    for name in [
-        "cornell",
-        "furnace",
-        "smallpt",
-        "sphere-over-plane",
-        "spheres",
-    ] {
+    for name in &micropt_host::reference::shipped_scenes() {
         let text = scene_text(name);
         let scene = parse(&text).unwrap();
         let (w, h) = scene.resolution().unwrap();
@@ -300,13 +294,7 @@ fn horizon_under_a_tiny_sun_matches_the_analytic_radiance() {
 #[test]
 fn shipped_scenes_have_finite_pixels_and_no_nonfinite_samples() {
     let mut paths = 0;
-    for name in [
-        "cornell",
-        "furnace",
-        "smallpt",
-        "sphere-over-plane",
-        "spheres",
-    ] {
+    for name in &micropt_host::reference::shipped_scenes() {
         let scene = parse(&scene_text(name)).unwrap();
         let (w, h) = scene.resolution().unwrap();
         let out = run(&scene, w, h, 16, 9);
