@@ -156,6 +156,23 @@ pub fn two_square(a: f32) -> (f32, f32) {
     (p, e)
 }
 
+/// Dekker's exact product without a fused multiply-add: `(p, e)` with
+/// `p = fl(a·b)` and `p + e = a·b` exactly, for |a|, |b| < 2¹¹⁴ and products
+/// that do not underflow. Only `+ - *`: the same bits everywhere.
+#[inline(always)]
+pub fn two_prod(a: f32, b: f32) -> (f32, f32) {
+    let split = |x: f32| {
+        let t = 4097.0 * x;
+        let hi = t - (t - x);
+        (hi, x - hi)
+    };
+    let (ah, al) = split(a);
+    let (bh, bl) = split(b);
+    let p = a * b;
+    let e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+    (p, e)
+}
+
 /// The next representable float above `x` (pbrt's `NextFloatUp`).
 #[inline]
 pub fn next_up(x: f32) -> f32 {

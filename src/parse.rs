@@ -11,7 +11,7 @@ use crate::scene::{MaterialId, Scene, SceneBuilder, SceneError};
 use heapless::Vec;
 
 mod decimal;
-pub use decimal::parse_f32;
+pub use decimal::{parse_f32, residual};
 
 /// Longest material name, in bytes.
 pub const MAX_NAME_LEN: usize = 32;
@@ -239,8 +239,18 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
                 count(5)?;
                 let v = nums(0..4)?;
                 let m = self.material_id(args.get(4).copied().unwrap_or(""))?;
+                let mut lo = [0.0; 4];
+                for ((l, t), &hi) in lo.iter_mut().zip(args).zip(&v) {
+                    *l = residual(t, hi);
+                }
                 self.builder
-                    .sphere(Vec3::new(v[0], v[1], v[2]), v[3], m)
+                    .sphere_precise(
+                        Vec3::new(v[0], v[1], v[2]),
+                        Vec3::new(lo[0], lo[1], lo[2]),
+                        v[3],
+                        lo[3],
+                        m,
+                    )
                     .map(|_| ())
                     .map_err(scene)
             }

@@ -224,6 +224,22 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         radius: f32,
         m: MaterialId,
     ) -> Result<ObjectId, SceneError> {
+        self.sphere_precise(center, Vec3::ZERO, radius, 0.0, m)
+    }
+
+    /// Adds a sphere of centre `center + center_lo` and radius
+    /// `radius + radius_lo`: f32 values and the remainders of exact ones
+    /// (see [`Sphere::with_residuals`]; the parser gives them for every
+    /// decimal). Only huge spheres, whose centre's rounding is a visible
+    /// distance in the scene, need them.
+    pub fn sphere_precise(
+        &mut self,
+        center: Vec3,
+        center_lo: Vec3,
+        radius: f32,
+        radius_lo: f32,
+        m: MaterialId,
+    ) -> Result<ObjectId, SceneError> {
         check_finite(center)?;
         if !radius.is_finite() {
             return Err(SceneError::NotFinite);
@@ -239,7 +255,9 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         self.lookup(m)?;
         let id = ObjectId::sphere(self.spheres.len());
         self.spheres
-            .push(Sphere::new(center, radius, m.0))
+            .push(Sphere::with_residuals(
+                center, center_lo, radius, radius_lo, m.0,
+            ))
             .map_err(|_| SceneError::Capacity("spheres"))?;
         Ok(id)
     }

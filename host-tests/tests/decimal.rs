@@ -106,3 +106,56 @@ fn subnormal_and_overflow_boundaries() {
         Some(f32::INFINITY)
     );
 }
+
+/// `micropt::parse::residual` gives what the f32 lacks: `hi + lo` equals
+/// the decimal (as std's f64 reads it, itself within 2⁻⁵³) to 2⁻⁴⁰ of its
+/// magnitude, 2¹⁶ times closer than `hi` alone can be in general.
+fn residual_is_accurate(s: &str) -> Result<(), TestCaseError> {
+    let Some(hi) = parse_f32(s) else {
+        prop_assert_eq!(micropt::parse::residual(s, 0.0), 0.0);
+        return Ok(());
+    };
+    let lo = micropt::parse::residual(s, hi);
+    let exact: f64 = s.parse().unwrap();
+    if !hi.is_normal() || !(exact.abs() > 1e-28 && exact.abs() < 1e36) {
+        prop_assert!(lo.abs() <= hi.abs(), "{s}: lo {lo}");
+        return Ok(());
+    }
+    let err = (f64::from(hi) + f64::from(lo) - exact).abs();
+    prop_assert!(
+        err <= exact.abs() * 2f64.powi(-40),
+        "{s}: hi {hi} lo {lo}, error {err:e} of {exact:e}"
+    );
+    Ok(())
+}
+
+#[test]
+fn residual_of_scene_values() {
+    for s in [
+        "-99918.4",
+        "100001",
+        "681.33",
+        "0.1",
+        "-0.3",
+        "1e5",
+        "16.5",
+        "123456789.123",
+        "1.5e-7",
+        "3.4e37",
+        "0",
+        "-0",
+    ] {
+        residual_is_accurate(s).unwrap();
+    }
+    // the ceiling of smallpt: −99918.4 is 0.0015625 below its f32
+    let lo = micropt::parse::residual("-99918.4", -99_918.398);
+    assert!((f64::from(lo) + 0.0015625).abs() < 1e-9, "{lo}");
+}
+
+proptest! {
+    #[test]
+    fn residual_of_random_decimals(int in 0u64..10_000_000_000, frac in 0u32..100_000, exp in -20i32..20, neg: bool) {
+        let s = format!("{}{int}.{frac:05}e{exp}", if neg { "-" } else { "" });
+        residual_is_accurate(&s)?;
+    }
+}

@@ -89,3 +89,41 @@ fn micromath_fast_functions_are_approximations() {
     let a = 0.1 * std::f64::consts::TAU;
     assert!((f64::from(s) - a.sin()).abs() < 1e-2 && (f64::from(c) - a.cos()).abs() < 1e-2);
 }
+
+/// Error-free transformations: `two_sum`, `two_square` and `two_prod`
+/// return the rounded result and its exact error (a sum or product of two
+/// f32s is exact in f64), over operands spanning 2⁻⁴⁰..2⁴⁰ of both signs (no error term underflows).
+#[test]
+fn error_free_transformations_are_exact() {
+    let mut z = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        z ^= z << 13;
+        z ^= z >> 7;
+        z ^= z << 17;
+        z
+    };
+    for _ in 0..200_000 {
+        let r = next();
+        let e = ((r >> 32) % 80) as i32 - 40;
+        let a = f32::from_bits((r as u32 & 0x807f_ffff) | 0x3f80_0000) * 2f32.powi(e);
+        let r = next();
+        let e = ((r >> 32) % 80) as i32 - 40;
+        let b = f32::from_bits((r as u32 & 0x807f_ffff) | 0x3f80_0000) * 2f32.powi(e);
+        let (p, pe) = math::two_prod(a, b);
+        assert_eq!(p, a * b);
+        assert_eq!(
+            f64::from(p) + f64::from(pe),
+            f64::from(a) * f64::from(b),
+            "{a:e} * {b:e}"
+        );
+        let (q, qe) = math::two_square(a);
+        assert_eq!(f64::from(q) + f64::from(qe), f64::from(a) * f64::from(a));
+        let (s, se) = math::two_sum(a, b);
+        assert_eq!(s, a + b);
+        assert_eq!(
+            f64::from(s) + f64::from(se),
+            f64::from(a) + f64::from(b),
+            "{a:e} + {b:e}"
+        );
+    }
+}

@@ -12,6 +12,10 @@ pub struct Sphere {
     pub radius: f32,
     /// `radius * radius`, cached.
     pub(crate) radius2: f32,
+    /// What the radius lacks, below its f32 rounding, for the surface to
+    /// pass where the scene put it ([`Sphere::with_residuals`]); 0 for a
+    /// sphere whose centre and radius are exact f32 values.
+    pub(crate) radius_lo: f32,
     /// Index of the material in the scene.
     pub material: u16,
 }
@@ -23,7 +27,48 @@ impl Sphere {
             center,
             radius,
             radius2: radius * radius,
+            radius_lo: 0.0,
             material,
+        }
+    }
+
+    /// A sphere whose centre and radius are `center + center_lo` and
+    /// `radius + radius_lo`, each given as an f32 and the rest of its exact
+    /// value (a decimal such as smallpt's −99918.4 lies 0.0016 from the
+    /// nearest f32; [`crate::parse`] passes both parts).
+    ///
+    /// The rounding of a huge sphere's centre moves its surface by up to
+    /// half an ulp of the centre's coordinates (1/256 at 1e5): for smallpt's
+    /// ceiling, 0.0016 units, which grew the rim where the lamp, a sphere of
+    /// radius 600, pokes 0.27 units through it by 0.05 units, a visible
+    /// fraction of the rim's pixels. The remainders cannot be kept at f32
+    /// precision in the centre itself, so they go into the radius: the
+    /// sphere about the f32 centre whose radius is `radius + δ`, with
+    /// `δ = radius_lo + n·center_lo` and `n` the unit direction from the
+    /// centre toward the world origin, passes through the exact surface
+    /// point in that direction and lies within `|center_lo|·|m − n|` of the
+    /// exact sphere in any other direction `m`: negligible across a scene
+    /// (under 1e-5 units for smallpt's walls, where `|m − n| < 2e-3`), and
+    /// never more than the centre's own rounding. `δ` enters where the
+    /// surface's exact position counts: the power of ray origins near the
+    /// surface and the refined hit points of huge spheres.
+    pub fn with_residuals(
+        center: Vec3,
+        center_lo: Vec3,
+        radius: f32,
+        radius_lo: f32,
+        material: u16,
+    ) -> Self {
+        let len = center.length();
+        let toward_origin = if len > 0.0 {
+            center * (-1.0 / len)
+        } else {
+            Vec3::ZERO
+        };
+        let delta = radius_lo + toward_origin.dot(center_lo);
+        Self {
+            radius_lo: if math::is_finite(delta) { delta } else { 0.0 },
+            ..Self::new(center, radius, material)
         }
     }
 
@@ -94,7 +139,8 @@ impl Sphere {
         }
     }
 
-    /// `|o − c|² − r²` (the power of the point `o`) to a few ulps of the
+    /// `|o − c|² − (r + δ)²` (the power of the point `o`, with the radius's
+    /// residual δ of [`Sphere::with_residuals`]) to a few ulps of the
     /// result, in double-f32 arithmetic: the difference, the squares and
     /// the sum are split into exact high and low parts
     /// ([`math::two_sum`], [`math::two_square`]).
@@ -110,8 +156,10 @@ impl Sphere {
         let (s1, e1) = math::two_sum(px, py);
         let (s2, e2) = math::two_sum(s1, pz);
         let (s3, e3) = math::two_sum(s2, -pr);
+        // (r + δ)² = r² + 2rδ + δ²: δ is below r's rounding, so 2rδ is of
+        // the size of the low parts, and δ² is negligible
         let lo = (e1 + e2 + e3)
-            + ((qx + qy + qz) - qr)
+            + ((qx + qy + qz) - qr - 2.0 * self.radius * self.radius_lo)
             + 2.0 * (fx * ex + fy * ey + fz * ez)
             + (ex * ex + ey * ey + ez * ez);
         s3 + lo
@@ -150,8 +198,17 @@ impl Sphere {
     /// which is what lets [`Hit::spawn`](super::Hit::spawn) offset by 1.25
     /// times the bound without directed rounding); the stated distance bound
     /// is e·|n| + |e|²/(2r) (the tangential part counts at second order).
+    ///
+    /// A sphere much larger than the hit point's coordinates (smallpt's
+    /// walls: r = 1e5 around a room 100 units wide) would get a bound of
+    /// γ(5)·r that way, far above the scene's own rounding; its hit point
+    /// is [refined](Sphere::hit_huge) instead.
     #[inline]
     pub fn hit(&self, ray: &Ray, t: f32, id: ObjectId) -> Hit {
+        let p0 = ray.origin + ray.dir * t;
+        if self.radius > HUGE * p0.abs().max_component() {
+            return self.hit_huge(p0, t, id);
+        }
         let mut local = ray.origin - self.center + ray.dir * t;
         let len = local.length();
         local *= self.radius / len;
@@ -173,7 +230,48 @@ impl Sphere {
             material: self.material,
         }
     }
+
+    /// The hit record of a sphere at least [`HUGE`] times larger than the
+    /// coordinates of the point `p0 = o + t·d`.
+    ///
+    /// Re-projecting through the centre would round the point at the
+    /// centre's scale (ulp(1e5) = 1/128 for smallpt's walls): an error bound
+    /// of γ(5)·r, and spawned rays offset by 0.04 units, which hid the top
+    /// seventh of the lamp's 0.27-unit rim from the floor below. Instead
+    /// `p0` moves along the normal by its signed distance from the surface,
+    /// `s = (|p0 − c|² − r²) / (|p0 − c| + r)`, whose numerator
+    /// [`Sphere::origin_power`] gives to a few ulps of itself; the point is
+    /// then rounded at its own scale. Its distance from the surface is at
+    /// most the rounding of `p0 − n·s` (γ(5)·|p|, counted five times as in
+    /// [`Sphere::hit`]), the rounding of `s` and of the normal's direction
+    /// applied to it (γ(8)·|s|) and the curvature left by a straight step
+    /// (s²/(2r), with no effect at this scale but kept for rigour).
+    #[inline(never)]
+    fn hit_huge(&self, p0: Vec3, t: f32, id: ObjectId) -> Hit {
+        let local = p0 - self.center;
+        let len = local.length();
+        let normal = local * (1.0 / len);
+        let s = self.origin_power(p0) / (len + self.radius + self.radius_lo);
+        let point = p0 - normal * s;
+        let s_abs = math::abs(s);
+        let error = (point.abs() * math::gamma(5)).dot(normal.abs())
+            + s_abs * math::gamma(8)
+            + s_abs * s_abs * (0.5 / self.radius);
+        Hit {
+            t,
+            point,
+            normal,
+            error,
+            object: id,
+            material: self.material,
+        }
+    }
 }
+
+/// A sphere whose radius exceeds this multiple of its hit point's largest
+/// coordinate gets its hit point refined at the point's scale
+/// ([`Sphere::hit_huge`]) rather than re-projected through its centre.
+pub const HUGE: f32 = 16.0;
 
 #[cfg(test)]
 mod tests {

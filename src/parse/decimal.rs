@@ -21,6 +21,8 @@
 
 use core::cmp::Ordering;
 
+use crate::math;
+
 /// Significant digits kept exactly; more only set the sticky bit.
 const MAX_DIGITS: usize = 120;
 /// 32-bit limbs of the big integers: 640 bits. The largest value formed is
@@ -145,6 +147,105 @@ pub fn parse_f32(s: &str) -> Option<f32> {
         None => inf_or_nan(body)?,
     };
     Some(if negative { -magnitude } else { magnitude })
+}
+
+/// What the decimal `s` lacks beyond `hi`, its correctly rounded f32 value
+/// ([`parse_f32`]), to about 2⁻²⁰ of itself: `hi + residual(s, hi)` is `s`
+/// to some 44 bits. 0 for strings `parse_f32` rejects, for infinities, NaN
+/// and zero, and where the value or its residual would leave the normal
+/// f32 range.
+///
+/// The digits accumulate in double-f32 arithmetic (an unevaluated sum of
+/// two f32s, exact products and sums by [`math::two_prod`] and
+/// [`math::two_sum`]), and the decimal exponent is applied by exact steps
+/// of ×10 or ÷10; each step rounds at about 2⁻⁴⁶ of the value. `hi` lies
+/// within an ulp of the high part, so their difference is exact. Used for
+/// the centres and radii of spheres, where the rounding of a coordinate of
+/// 1e5 is a visible distance in a room of 100 units.
+pub fn residual(s: &str, hi: f32) -> f32 {
+    if parse_f32(s).is_none() || !math::is_finite(hi) || hi == 0.0 {
+        return 0.0;
+    }
+    let bytes = s.as_bytes();
+    let (negative, body) = match bytes.split_first() {
+        Some((b'-', rest)) => (true, rest),
+        Some((b'+', rest)) => (false, rest),
+        _ => (false, bytes),
+    };
+    let (mut h, mut l) = (0.0f32, 0.0f32);
+    let mut exp10: i32 = 0;
+    let mut seen_point = false;
+    let mut rest = body;
+    while let Some((&c, tail)) = rest.split_first() {
+        match c {
+            b'0'..=b'9' => {
+                if h < 1.0e30 {
+                    (h, l) = dd_mul10_add(h, l, f32::from(c - b'0'));
+                    if seen_point {
+                        exp10 -= 1;
+                    }
+                } else if !seen_point {
+                    exp10 += 1;
+                }
+            }
+            b'.' => seen_point = true,
+            _ => break,
+        }
+        rest = tail;
+    }
+    if let Some((_, tail)) = rest.split_first() {
+        let (neg, tail) = match tail.split_first() {
+            Some((b'-', t)) => (true, t),
+            Some((b'+', t)) => (false, t),
+            _ => (false, tail),
+        };
+        let mut e: i32 = 0;
+        for c in tail {
+            if e < 10_000 {
+                e = e * 10 + i32::from(c - b'0');
+            }
+        }
+        exp10 += if neg { -e } else { e };
+    }
+    while exp10 > 0 {
+        if h > 1.0e36 {
+            return 0.0;
+        }
+        (h, l) = dd_mul10_add(h, l, 0.0);
+        exp10 -= 1;
+    }
+    while exp10 < 0 {
+        if h < 1.0e-28 {
+            return 0.0;
+        }
+        (h, l) = dd_div10(h, l);
+        exp10 += 1;
+    }
+    let magnitude = if negative { -hi } else { hi };
+    let lo = (h - magnitude) + l;
+    let lo = if negative { -lo } else { lo };
+    if math::is_finite(lo) && math::abs(lo) <= math::abs(hi) * (1.0 / 1_048_576.0) {
+        lo
+    } else {
+        0.0
+    }
+}
+
+/// `(h + l)·10 + d` in double-f32, renormalised.
+fn dd_mul10_add(h: f32, l: f32, d: f32) -> (f32, f32) {
+    let (p, e) = math::two_prod(h, 10.0);
+    let (s, e2) = math::two_sum(p, d);
+    let lo = e + e2 + l * 10.0;
+    math::two_sum(s, lo)
+}
+
+/// `(h + l) / 10` in double-f32, renormalised: the quotient of the high
+/// part, then the exact remainder divided again.
+fn dd_div10(h: f32, l: f32) -> (f32, f32) {
+    let q = h / 10.0;
+    let (p, e) = math::two_prod(q, 10.0);
+    let r = ((h - p) - e) + l;
+    math::two_sum(q, r / 10.0)
 }
 
 /// The unsigned decimal grammar and its correctly rounded value.
