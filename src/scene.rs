@@ -652,6 +652,12 @@ impl SceneView<'_> {
     }
 
     /// [`SceneView::closest_hit_any`] among the spheres `spheres` only.
+    ///
+    /// Planes at the same ray parameter (in f32, planes far apart tie at a
+    /// great distance: two parallel walls a unit apart seen from 1e7 away)
+    /// are resolved as [`SceneView::closest_hit_among`] resolves them, so
+    /// that the slab skip changes no bit: the slab planes the ray moves
+    /// toward first (axes x, y, z), then every other plane in index order.
     #[inline(never)]
     pub fn closest_hit_any_among(
         &self,
@@ -659,9 +665,22 @@ impl SceneView<'_> {
         from: ObjectId,
         spheres: &[Listed],
     ) -> Option<Hit> {
+        let mut first = [ObjectId::NONE; 3];
+        if let Some(sl) = &self.slabs {
+            let d = [ray.dir.x, ray.dir.y, ray.dir.z];
+            for ((f, ids), dk) in first.iter_mut().zip(&sl.id).zip(d) {
+                if let Some(&id) = ids.get((dk.to_bits() >> 31) as usize) {
+                    *f = id;
+                }
+            }
+        }
+        let slab_planes = first.into_iter().filter_map(|id| id.as_plane());
+        let rest = (0..self.planes.len()).filter(move |&i| !first.contains(&ObjectId::plane(i)));
         nearest(
             None,
-            self.planes.iter().enumerate(),
+            slab_planes
+                .chain(rest)
+                .filter_map(|i| self.planes.get(i).map(|p| (i, p))),
             spheres,
             self.planes,
             ray,
