@@ -211,8 +211,8 @@ fn run(
 
 /// Prints the one-line summary. (Not inlined: its formatting stack is not
 /// live during the render.) Strings go out with `write_str`, numbers with
-/// `{}`: a `{}` of a `&str` would link the formatter's padding code (1.5 KiB
-/// of flash).
+/// `{}`: a `{}` of a `&str` would link the formatter's padding code into
+/// the flash (docs/firmware.md).
 #[inline(never)]
 fn summary(sum: &Summary, bytes: usize, stack: usize) {
     let mut out = HostOut::stdout();

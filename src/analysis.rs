@@ -22,8 +22,8 @@
 //!   a numerical leak, and is counted).
 //! * Spheres entirely outside the cone that bounds the view frustum can never
 //!   be hit by a camera ray; they are left out of primary-ray tests.
-//! * A scene without mirror or glass objects runs an integrator compiled
-//!   without them; a scene with one light never selects among lights.
+//! * A scene with one light never selects among lights: it runs an
+//!   integrator compiled without light selection.
 //! * Since no path vertex lies beyond an opaque plane, a ray can hit an
 //!   opaque axis-aligned plane only if it is the nearest such plane on the
 //!   camera's side of its axis, in the direction the ray moves along that
@@ -74,8 +74,6 @@ pub struct Analysis<const S: usize, const P: usize> {
     pub view_keys: Vec<f32, S>,
     /// No ray can escape the region of the camera.
     pub closed: bool,
-    /// Some object is a mirror or glass.
-    pub specular: bool,
     /// The opaque axis-aligned planes nearest the camera, per axis and side.
     pub slabs: Slabs,
     /// The planes that [`Analysis::slabs`] does not hold (in index order).
@@ -110,7 +108,6 @@ impl<const S: usize, const P: usize> Analysis<S, P> {
         view_order: Vec::new(),
         view_keys: Vec::new(),
         closed: false,
-        specular: false,
         slabs: Slabs {
             c: [[0.0; 2]; 3],
             id: [[ObjectId::sphere(0); 2]; 3],
@@ -302,7 +299,6 @@ pub fn analyse_into<const S: usize, const P: usize>(
         view_order,
         view_keys,
         closed: closed_out,
-        specular: specular_out,
         slabs: slabs_out,
         other_planes,
         listed_view,
@@ -428,17 +424,6 @@ pub fn analyse_into<const S: usize, const P: usize>(
         let _ = view_keys.push(k);
     }
 
-    let specular = spheres
-        .iter()
-        .map(|s| s.material)
-        .chain(planes.iter().map(|p| p.material))
-        .any(|m| {
-            matches!(
-                materials.get(m as usize),
-                Some(Material::Mirror(_) | Material::Glass(_))
-            )
-        });
-
     let light_clear = match (lights.as_slice(), reachable().next()) {
         ([_], Some(l)) => {
             shadow_spheres
@@ -482,7 +467,6 @@ pub fn analyse_into<const S: usize, const P: usize>(
     listed(spheres, view_order, listed_view);
     listed(spheres, shadow_spheres, listed_shadow);
     *closed_out = closed;
-    *specular_out = specular;
     *light_clear_out = light_clear;
     *horizon_planes_out = horizon_planes;
     *horizon_spheres_out = horizon_spheres;
@@ -528,7 +512,6 @@ mod tests {
         let s = parse(include_str!("../scenes/cornell.scene")).unwrap();
         let a = s.analysis();
         assert!(a.closed);
-        assert!(a.specular);
         assert!(a.shadow_planes.is_empty(), "{:?}", a.shadow_planes);
         // the matte and chrome spheres; the only light cannot block itself
         assert_eq!(a.shadow_spheres.as_slice(), &[1, 2]);
@@ -555,7 +538,7 @@ mod tests {
             assert!(!s.analysis().closed);
         }
         let s = parse(include_str!("../scenes/sphere-over-plane.scene")).unwrap();
-        assert!(!s.analysis().closed && !s.analysis().specular);
+        assert!(!s.analysis().closed);
         // the light is above the floor: the floor never blocks it
         assert!(s.analysis().shadow_planes.is_empty());
     }

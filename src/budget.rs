@@ -10,8 +10,12 @@
 //!    first one more sample for every pixel, so that each has two and a
 //!    variance estimate, then in [`AdaptiveOptions::rounds`] equal rounds, each
 //!    in proportion to how far a pixel's count is below the count its
-//!    estimated standard deviation calls for (at least
-//!    [`AdaptiveOptions::floor`] of the even share). A pixel's samples always
+//!    estimated standard deviation calls for, with every weight raised to at
+//!    least [`AdaptiveOptions::floor`] times the mean weight. Raising the
+//!    small weights also raises their sum, so a pixel is guaranteed
+//!    `f / (1 + f)` of the round's even share for a floor `f` (a third with
+//!    the default ½; `f·n / (n + (n − 1) f)` exactly for `n` pixels, less one
+//!    sample of rounding), not `f`. A pixel's samples always
 //!    have consecutive indices from 0, summed in order, so with uniform
 //!    allocation (`--uniform`) the image equals the plain `spp` render bit
 //!    for bit.
@@ -23,33 +27,29 @@
 //! [`AdaptiveOptions::prior`] samples), because a few samples are a poor
 //! estimate, and re-estimated every round.
 //!
-//! **Bias — measured, and why it is accepted.** The allocation depends on a
-//! pixel's own samples: a pixel whose early samples found a rare bright path
-//! (a caustic, the edge of a light) gets more samples, which dilute that
+//! **Adaptive allocation is biased, and consistent.** The allocation depends
+//! on a pixel's own samples: a pixel whose early samples found a rare bright
+//! path (a caustic, the edge of a light) gets more samples, which dilute that
 //! path's weight toward its true share, while a pixel that has not found it
-//! yet gets fewer. The mean of a pixel is therefore biased low, by a term
-//! that shrinks as the budget grows (every pixel gets at least half the even
-//! share, so every count grows without bound, and the estimates that steer
-//! the allocation converge). Measured on cornell (mean over 4 seeds, image
-//! mean 0.79): −1.4e-2 at 16 spp, −9.0e-3 at 64, −4.6e-3 at 256, −1.9e-3 at
-//! 1024 (one seed); on spheres: −6.2e-3, −4.1e-3, −2.8e-3. In exchange the
-//! MSE against the references is 2.1× (cornell) and 3.7× (spheres) lower at
-//! 16 spp, 1.7× and 3.1× at 64, 1.3× and 4.9× at 256; on cornell the gain
-//! is gone by 1024 spp (1.05×): its remaining error is spread over the
-//! image, and the Sobol sampler already makes the error of its high-σ
-//! pixels (the lamp's edges) fall faster than σ²/n. A stratification-aware
-//! σ (the spread of the means of aligned blocks of 4 or 16 samples, which
-//! are nets of the scrambled Sobol sequence) was measured: 1.07× at 1024,
-//! and worse than σ at 64 with blocks of 16; not kept. Unbiased variants were
-//! tried and measured (allocation steered only by neighbours' samples; a
-//! martingale weighting of rounds fixed before each round; one decision from
-//! a 1- or 2-sample pilot; tiles split by preview contrast): none beat uniform
-//! stratified sampling on these scenes, because the Sobol sampler already
+//! yet gets fewer. The mean of a pixel is therefore biased (low, where rare
+//! bright paths carry the light), by a term that vanishes as the budget
+//! grows: every pixel gets at least a third of the even share of each round
+//! (above), so every count grows without bound, and the estimates that steer
+//! the allocation converge. It is the default because at the budgets a
+//! board can afford it lowers the MSE at equal paths on most shipped scenes;
+//! the gain fades as the budget grows, where the remaining error is spread
+//! over the image and the Sobol sampler already makes the error of high-σ
+//! pixels fall faster than σ²/n. Unbiased schemes (allocation steered only
+//! by neighbours' samples, per-round weights fixed before each round, one
+//! decision from a pilot, tiles split by preview contrast) do not beat
+//! uniform stratified sampling on these scenes: the Sobol sampler already
 //! removes most of the variance that is spread evenly, and what is left sits
 //! in rare bright paths that only a pixel's own samples reveal (and with
 //! stratified samples even per-round weights are not exactly unbiased: later
 //! points of a scrambled Sobol sequence are not independent of earlier
-//! ones). `--uniform` (or `AdaptiveOptions { adaptive: false, .. }`) gives
+//! ones). The bias and the gain, per scene and budget, and the schemes
+//! compared: docs/bench.md ("Adaptive sampling"). Uniform allocation
+//! (`AdaptiveOptions { adaptive: false, .. }`, the CLI's `--uniform`) gives
 //! the unbiased estimator.
 //!
 //! **Memory.** Only one tile's accumulators ([`TileAccum`], 5 KiB for a
@@ -101,8 +101,10 @@ pub struct AdaptiveOptions {
     /// Allocate where the estimated error is largest (`false`: the same
     /// number of samples for every pixel, and an unbiased image).
     pub adaptive: bool,
-    /// Every pixel gets at least this fraction of the even share of each
-    /// round.
+    /// Every pixel's weight in a round is at least this fraction `f` of the
+    /// mean weight, which guarantees it `f / (1 + f)` of the round's even
+    /// share (a third for the default ½; see the module docs), less one
+    /// sample of rounding.
     pub floor: f32,
     /// Rounds of per-pixel allocation after the second sample.
     pub rounds: u32,
@@ -257,6 +259,13 @@ fn cumulative_share(total: u64, cum: f32, cum_total: f32, last: bool) -> u64 {
 /// The split of `total` samples over `n` items with weights `w(i)` (NaN and
 /// infinities count as 0), each at least `floor` times the mean weight; even
 /// when all weights are 0. Calls `give(i, share)`.
+///
+/// A floored weight `f·m` (mean `m`) is a share `f·m / Σ max(w, f·m)` of
+/// `total`, and the sum is at most `n·m + (n − 1)·f·m` (the weights sum to
+/// `n·m`; at least one is above the floor when `m > 0` and `f < 1`), so
+/// every share is at least `total · f / (n + (n − 1) f)`, less one sample
+/// of cumulative rounding: `f / (1 + f)` of the even share as `n` grows. One
+/// item holding all the weight attains it.
 fn split(
     n: usize,
     total: u64,
@@ -552,6 +561,69 @@ mod tests {
             |i, s| got[i] = s,
         );
         assert_eq!(got[0] + got[1], 7);
+    }
+
+    /// The guarantee of `split` (its docs): with weights floored at `f`
+    /// times the mean, every share is at least `total · f / (n + (n − 1) f)`
+    /// less one sample of rounding (and the f32 rounding of the cumulative
+    /// sums, a few ulps of `total`), and one item holding all the weight
+    /// brings the others down to that bound: a third of the even share for
+    /// `f = ½`, not a half.
+    #[test]
+    fn split_floor_guarantees_f_over_1_plus_f_of_the_even_share() {
+        // a small deterministic generator for weights (LCG, top bits)
+        let mut state = 0x2545_f491_u32;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut shares = [0u64; TILE_PIXELS];
+        for &n in &[1usize, 2, 3, 7, 16, 100, 255, 256] {
+            for &f in &[0.5f32, 0.25, 0.1, 0.9] {
+                for &total in &[10u64, 999, 256 * 64, 256 * 1000] {
+                    let bound =
+                        total as f64 * f64::from(f) / (n as f64 + (n as f64 - 1.0) * f64::from(f));
+                    let slack = 1.0 + 4.0 * total as f64 / f64::from(1u32 << 24);
+                    // weights: one heavy item, random ones, sparse random ones
+                    let mut cases: [[f32; TILE_PIXELS]; 3] = [[0.0; TILE_PIXELS]; 3];
+                    cases[0][n / 2] = 1.0;
+                    let [_, random, sparse] = &mut cases;
+                    for (r, s) in random.iter_mut().zip(sparse.iter_mut()).take(n) {
+                        *r = next();
+                        *s = if next() < 0.1 { 100.0 * next() } else { 0.0 };
+                    }
+                    for (k, w) in cases.iter().enumerate() {
+                        split(n, total, f, |i| w[i], |i, s| shares[i] = s);
+                        assert_eq!(shares[..n].iter().sum::<u64>(), total);
+                        let min = *shares[..n].iter().min().unwrap();
+                        assert!(
+                            min as f64 + slack >= bound,
+                            "n {n}, f {f}, total {total}, case {k}: min share {min} < bound {bound}"
+                        );
+                        if k == 0 && n > 1 {
+                            // attained: the others get the bound, not f of the even share
+                            assert!(
+                                min as f64 <= bound + slack,
+                                "n {n}, f {f}, total {total}: min share {min} above bound {bound}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        // the default floor at a full tile: a third of the even share (64),
+        // not a half
+        let mut w = [0.0f32; TILE_PIXELS];
+        w[0] = 1.0;
+        split(
+            TILE_PIXELS,
+            256 * 64,
+            AdaptiveOptions::default().floor,
+            |i| w[i],
+            |i, s| shares[i] = s,
+        );
+        let min = *shares.iter().min().unwrap();
+        assert!((21..=22).contains(&min), "{min}");
     }
 
     #[test]

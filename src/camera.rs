@@ -59,7 +59,7 @@ impl CameraSpec {
 /// A pinhole camera for an image of `width` × `height` pixels.
 ///
 /// The image's right-hand direction is `normalize(forward × up)` and its up
-/// direction `right × forward` (SCENE_FORMAT.md); pixel (0,0) is the top-left
+/// direction `right × forward` (docs/scene-format.md); pixel (0,0) is the top-left
 /// one, and a pixel covers the square `[px, px+1) × [py, py+1)` of the film.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {

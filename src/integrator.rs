@@ -22,6 +22,12 @@
 //! contribution is below 0.999^253 of a throughput that roulette has already
 //! reduced — far beyond any measurable effect. In a box of perfect mirrors it
 //! drops the light of paths longer than 256 bounces (documented bias).
+//!
+//! Each path is an unbiased sample of its pixel. A pixel's mean stays
+//! unbiased only if the number of samples it gets does not depend on their
+//! values: uniform allocation ([`crate::budget::AdaptiveOptions::adaptive`]
+//! false, the CLI's `--uniform`). The default adaptive allocation is biased,
+//! and consistent: the bias vanishes as the budget grows ([`crate::budget`]).
 
 use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3};
 use crate::light;
@@ -112,10 +118,10 @@ pub struct Options {
     /// Russian roulette keeps a path with probability
     /// `min(1, rr_gain × max throughput component)` (and divides the
     /// throughput by it). 1 is the textbook choice; with 1.5 a path runs on
-    /// surely until its throughput falls below 2/3 (measured efficiency
-    /// 1/(MSE × time), 32 seeds at 64 spp: cornell +12 %, spheres +10 %,
-    /// smallpt +7 %, furnace and sphere-over-plane unchanged, with
-    /// `rr_start` 2 against the former 3 and gain 1).
+    /// surely until its throughput falls below 2/3, which spends fewer
+    /// roulette draws on bright paths and gave the best efficiency
+    /// 1/(MSE × time) of the settings compared (docs/bench.md, "Russian
+    /// roulette").
     pub rr_gain: f32,
     /// Guard against endless paths (see the module docs).
     pub max_depth: u32,
@@ -295,32 +301,18 @@ impl Ctx<'_, '_> {
         })
     }
 
-    /// Picks a light for next-event estimation at `x` (with several lights,
-    /// by one uniform number from `stream`); returns the choice and the
-    /// weight sum (needed later for MIS).
+    /// Picks a light for next-event estimation at `x` by one uniform number
+    /// from `stream` (the several-lights variant; with one light the
+    /// integrator uses [`OneLight`] and selects nothing); returns the choice
+    /// and the weight sum (needed later for MIS).
     #[inline]
-    fn choose_light<const MANY: bool>(
+    fn choose_light(
         &self,
         x: Vec3,
         n: Vec3,
         horizon: bool,
         stream: &mut SampleStream<'_>,
     ) -> (Option<LightChoice>, f32) {
-        if !MANY {
-            let Some(&one) = self.lights.first() else {
-                return (None, 0.0);
-            };
-            let i = one as usize;
-            let c = self
-                .samplable(x, n, i, horizon)
-                .map(|(to_c, d2, _)| LightChoice {
-                    sphere: i,
-                    p_sel: 1.0,
-                    to_c,
-                    d2,
-                });
-            return (c, 1.0);
-        }
         let u = stream.next_f32();
         let mut sum = 0.0;
         for &l in self.lights {
@@ -371,12 +363,13 @@ impl Ctx<'_, '_> {
         if !self.lights.contains(&(i as u16)) {
             return 0.0;
         }
-        let Some((_, d2, r2)) = self.samplable(prev.point, prev.normal, i, prev.horizon) else {
+        if self
+            .samplable(prev.point, prev.normal, i, prev.horizon)
+            .is_none()
+        {
             return 0.0;
-        };
-        if !MANY {
-            1.0 / (math::TWO_PI * light::one_minus_cos_max(r2, d2))
-        } else if prev.weight_sum > 0.0 {
+        }
+        if prev.weight_sum > 0.0 {
             // p_sel · pdf_cone = (lum · omc / W) · 1 / (2π omc)
             self.light_lum(i) / (math::TWO_PI * prev.weight_sum)
         } else {
@@ -389,10 +382,10 @@ impl Ctx<'_, '_> {
 ///
 /// Pure function of its inputs: the same stream gives the same bits. The
 /// integrator is compiled in two variants, for one light (no light
-/// selection) or several, chosen here once per path. (A third dimension,
-/// without the mirror and glass arms, saved one multiply per vertex and cost
-/// a copy of the whole loop in flash: scenes without them run the general
-/// variant, whose mirror and glass arms they never enter.)
+/// selection) or several, chosen here once per path. Both hold the mirror
+/// and glass arms (when those features are built): a scene without mirrors
+/// or glass never enters them, and one copy of the loop keeps the firmware
+/// small.
 #[inline(always)]
 pub fn radiance(
     scene: &SceneView<'_>,
@@ -407,8 +400,9 @@ pub fn radiance(
     } else {
         scene.emitters
     };
-    // no light at all: the general variant, which measured faster there
-    // (furnace: 16 % fewer instructions per path) and draws the same numbers
+    // no light at all: the general variant, which runs fewer instructions
+    // there than the one-light variant (docs/bench.md) and draws the same
+    // numbers
     let many = lights.len() != 1 || !skip.specialize;
     let ctx = Ctx {
         scene,
@@ -423,16 +417,16 @@ pub fn radiance(
     };
     // many lights, or the skip off: the general variant
     if many {
-        trace::<true, true>(&ctx, ray, stream, opts, stats)
+        trace::<true>(&ctx, ray, stream, opts, stats)
     } else {
-        trace::<true, false>(&ctx, ray, stream, opts, stats)
+        trace::<false>(&ctx, ray, stream, opts, stats)
     }
 }
 
-/// The path tracer for scenes with (`SPEC`) or without mirrors and glass,
-/// and with several (`MANY`) or at most one light.
+/// The path tracer, compiled for scenes with several lights (`MANY`) or
+/// with one.
 #[inline(always)]
-fn trace<const SPEC: bool, const MANY: bool>(
+fn trace<const MANY: bool>(
     ctx: &Ctx<'_, '_>,
     ray: Ray,
     stream: &mut SampleStream<'_>,
@@ -529,20 +523,10 @@ fn trace<const SPEC: bool, const MANY: bool>(
                         stream.next_2d()
                     };
                     if MANY {
-                        let (choice, sum) = ctx.choose_light::<MANY>(hit.point, n, horizon, stream);
+                        let (choice, sum) = ctx.choose_light(hit.point, n, horizon, stream);
                         weight_sum = sum;
                         if let Some(c) = choice {
-                            l += direct::<MANY>(
-                                scene,
-                                &hit,
-                                n,
-                                albedo,
-                                thr,
-                                &c,
-                                u,
-                                opts,
-                                &mut shadows,
-                            );
+                            l += direct(scene, &hit, n, albedo, thr, &c, u, opts, &mut shadows);
                         }
                     } else if let Some(one) = &ctx.one {
                         weight_sum = 1.0;
@@ -591,13 +575,13 @@ fn trace<const SPEC: bool, const MANY: bool>(
                 ray = hit.spawn_on(n, dir);
             }
             #[cfg(feature = "mirror")]
-            Material::Mirror(tint) if SPEC => {
+            Material::Mirror(tint) => {
                 thr *= tint;
                 specular = true;
                 ray = hit.spawn(material::reflect(ray.dir, hit.normal));
             }
             #[cfg(feature = "glass")]
-            Material::Glass(ior) if SPEC => {
+            Material::Glass(ior) => {
                 let (dir, f) =
                     material::sample_dielectric(ray.dir, hit.normal, ior, stream.next_f32());
                 thr *= f;
@@ -605,17 +589,16 @@ fn trace<const SPEC: bool, const MANY: bool>(
                 specular = true;
                 ray = hit.spawn(dir);
             }
-            // unreachable: this variant was chosen for a scene without
-            // mirrors or glass
-            Material::Mirror(_) | Material::Glass(_) => break,
+            // a material this build left out: `SceneBuilder` rejects it, so
+            // no scene holds one
+            #[cfg(not(feature = "mirror"))]
+            Material::Mirror(_) => break,
+            #[cfg(not(feature = "glass"))]
+            Material::Glass(_) => break,
         }
         depth += 1;
         if depth >= opts.rr_start {
-            let p = if SPEC {
-                thr.max_component() * rr_scale
-            } else {
-                thr.max_component()
-            } * opts.rr_gain;
+            let p = thr.max_component() * rr_scale * opts.rr_gain;
             if p < 1.0 {
                 if !(stream.next_f32() < p) {
                     break;
@@ -635,7 +618,8 @@ fn trace<const SPEC: bool, const MANY: bool>(
     l
 }
 
-/// Next-event estimation toward the chosen light, MIS-weighted.
+/// Next-event estimation toward the light that [`Ctx::choose_light`] chose
+/// (the several-lights variant), MIS-weighted.
 ///
 /// With `a = p_bsdf / p_light = (cos/π) · 2π (1 − cos θ_max) / p_sel`, the
 /// estimate `f · Le · cos / p_light · w` with `f = albedo/π` and the power
@@ -643,7 +627,7 @@ fn trace<const SPEC: bool, const MANY: bool>(
 /// ever divided by. With one light `a ≤ 2`, so `a²` cannot overflow.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn direct<const MANY: bool>(
+fn direct(
     scene: &SceneView<'_>,
     hit: &Hit,
     n: Vec3,
@@ -660,7 +644,7 @@ fn direct<const MANY: bool>(
     let Some(Material::Light(le)) = scene.materials.get(s.material as usize) else {
         return Color::ZERO;
     };
-    nee::<MANY>(
+    nee::<true>(
         scene,
         hit,
         n,

@@ -61,3 +61,9 @@ pub use integrator::{Options, Skip, Stats, Strategy};
 pub use material::Material;
 pub use render::Renderer;
 pub use scene::{MaterialId, Scene, SceneBuilder, SceneError, SceneView};
+
+/// The README's Rust examples, compiled and run as doctests (only when
+/// rustdoc collects doctests), so that the README cannot drift from the API.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

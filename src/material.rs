@@ -4,7 +4,7 @@
 use crate::geometry::{Color, Vec3};
 use crate::math;
 
-/// A surface material (SCENE_FORMAT.md `material` statement).
+/// A surface material (the `material` statement of docs/scene-format.md).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Material {
     /// Lambertian reflector with the given albedo, each channel in [0, 1].

@@ -1,6 +1,7 @@
 //! Every float function the core uses, called explicitly.
 //!
-//! Host and board must compute the same bits (DESIGN.md). A method call such as
+//! Host and board must compute the same bits (an image is a pure function of
+//! scene, budget and seed on every target). A method call such as
 //! `x.sqrt()` resolves to `std`'s intrinsic on the host but to micromath's
 //! approximation on a `no_std` board, so the core never calls float methods:
 //! it calls the functions of this module, which are either

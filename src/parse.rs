@@ -1,4 +1,4 @@
-//! The scene text format v1 (SCENE_FORMAT.md) → [`Scene`].
+//! The scene text format v1 (docs/scene-format.md) → [`Scene`].
 //!
 //! `no_std` and allocation-free: material names are borrowed from the input
 //! while parsing. Every error carries the 1-based line it was found on and

@@ -48,7 +48,8 @@ impl core::fmt::Display for SceneError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             // `write_str` pieces rather than `{what}`: a `{}` of a `&str`
-            // links the formatter's padding code (1.5 KiB of firmware flash)
+            // links the formatter's padding code into the firmware
+            // (docs/firmware.md)
             SceneError::Capacity(what) => {
                 f.write_str("too many ")?;
                 f.write_str(what)?;
@@ -449,7 +450,6 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             }),
             background: self.background,
             closed: a.closed,
-            specular: a.specular,
         }
     }
 }
@@ -501,8 +501,6 @@ pub struct SceneView<'a> {
     pub background: Color,
     /// No ray can escape (the background is never seen).
     pub closed: bool,
-    /// Some object is a mirror or glass.
-    pub specular: bool,
 }
 
 /// Records the hit of the slab plane along one axis (origin and direction
@@ -564,9 +562,9 @@ fn nearest<'p>(
             best = id;
         }
     }
-    // a sphere at exactly the nearest plane's distance wins the tie, as
-    // when spheres were tested first: accept t ≤ t_best, i.e. t < the next
-    // float above it
+    // a sphere at exactly the nearest plane's distance wins the tie
+    // (spheres take precedence although planes are tested first): accept
+    // t ≤ t_best, i.e. t < the next float above it
     let mut t_max = math::next_up_positive(t_best);
     // two copies of the sphere loop: rays that do not leave a sphere (from
     // the camera or a wall) compare no ids
@@ -688,18 +686,6 @@ impl SceneView<'_> {
         )
     }
 
-    /// The closest intersection of a camera ray: only the spheres that can
-    /// be in view are tested; `slabs` as in [`SceneView::closest_hit`] (or
-    /// every plane on its own).
-    #[inline]
-    pub fn closest_hit_primary(&self, ray: &Ray, slabs: bool) -> Option<Hit> {
-        if slabs {
-            self.closest_hit_among(ray, ObjectId::NONE, self.tested_primary)
-        } else {
-            self.closest_hit_any_among(ray, ObjectId::NONE, self.tested_primary)
-        }
-    }
-
     /// Whether anything but the objects `from` (where the ray starts) and
     /// `target` (the light it aims at) blocks `ray` before `t_max`. Only the
     /// objects that the analysis found able to block a shadow ray toward a
@@ -718,8 +704,8 @@ impl SceneView<'_> {
     }
 
     /// [`SceneView::occluded`], not inlined: for the integrator's
-    /// several-lights variant, where the inlined test cost 3 % more
-    /// instructions per path on the board (spheres.scene) and 1 KiB of flash.
+    /// several-lights variant, where a second inlined copy of the test costs
+    /// flash and, on the board, time (docs/bench.md).
     #[inline(never)]
     pub fn occluded_outlined(
         &self,

@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Efficiency of micropt against Mitsuba 3 on the same scene, one thread each.
 
-Converts a micropt scene file (SCENE_FORMAT.md v1) into a Mitsuba 3 scene dict
-with the conventions of DESIGN.md ("Making more references"): integrator
+Converts a micropt scene file (format v1, docs/scene-format.md) into a Mitsuba 3
+scene dict with the conventions of the references in host-tests/data/
+(docs/bench.md, "Mitsuba 3"): integrator
 `path` with max_depth -1, box reconstruction filter, two-sided diffuse, mirror
 = conductor of tint R, glass = dielectric with ext_ior 1.0, emitters = spheres
 with an `area` emitter and a black BSDF, planes = rectangles 1000x the size of

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Measures every skip-optimisation of issue 6 on the board (QEMU netduinoplus2,
+# Measures every skip-optimisation (`micropt::Skip`) on the board (QEMU netduinoplus2,
 # exact instruction counts from tools/qemu-icount) and writes
 # docs/skip-board.md.
 #

@@ -1,6 +1,6 @@
 //! Fuzz target: the scene parser on arbitrary bytes.
 //!
-//! The parser must never panic (SCENE_FORMAT.md: "Parsing never panics,
+//! The parser must never panic (docs/scene-format.md: "Parsing never panics,
 //! whatever bytes it is given"). Beyond not crashing, every outcome is
 //! checked for consistency: an error names a line that exists in the input
 //! and formats without panicking; an accepted scene holds only finite,

@@ -26,6 +26,12 @@ struct Cli {
 enum Command {
     /// Render a scene file to PNG (8-bit sRGB), PFM (linear float) or
     /// .rgb565 (raw big-endian, dithered as on the panel).
+    ///
+    /// By default sampling is adaptive: after a 1-spp preview the budget goes
+    /// where the estimated error is largest. That estimator is biased and
+    /// consistent (pixel means come out mostly low where rare bright paths
+    /// carry the light; the bias vanishes as the budget grows). --uniform
+    /// gives every pixel the same number of samples: the unbiased estimator.
     Render(RenderArgs),
     /// Compare two PFM images: MSE, RMSE, relMSE and mean difference.
     Compare(CompareArgs),
@@ -68,12 +74,12 @@ struct BenchArgs {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// Scene file (SCENE_FORMAT.md v1).
+    /// Scene file (format v1, docs/scene-format.md).
     scene: PathBuf,
     /// Output file; the extension picks the format [default: SCENE-STEM.png].
     #[arg(short, long, value_name = "OUT")]
     output: Option<PathBuf>,
-    /// Samples per pixel (the average, when allocation is adaptive)
+    /// Samples per pixel (the average, with the default adaptive allocation)
     /// [default: 64 when no other budget is given].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..), group = "budget")]
     spp: Option<u32>,
@@ -84,8 +90,10 @@ struct RenderArgs {
     /// preview always completes; not deterministic).
     #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..), group = "budget")]
     budget_ms: Option<u64>,
-    /// Spend the budget uniformly (every pixel the same number of samples)
-    /// instead of where the estimated error is largest.
+    /// Spend the budget uniformly (every pixel the same number of samples):
+    /// the unbiased estimator. Without it the budget goes where the
+    /// estimated error is largest: adaptive, biased and consistent (the bias
+    /// vanishes as the budget grows).
     #[arg(long)]
     uniform: bool,
     /// Diagnostics: do the work the scene analysis would skip, to measure
@@ -105,7 +113,8 @@ struct RenderArgs {
     /// Exposure multiplier applied before tone mapping (PNG, rgb565).
     #[arg(long, default_value_t = 1.0, value_parser = parse_exposure)]
     exposure: f32,
-    /// Print one JSON line of figures at the end.
+    /// Print one JSON line of figures at the end ("estimator" says which:
+    /// "adaptive (biased, consistent)" or "uniform (unbiased)").
     #[arg(long)]
     json: bool,
 }
@@ -261,6 +270,11 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
                 Budget::Deadline(us) => format!("ms {}", us / 1000),
             },
             "adaptive": !a.uniform,
+            "estimator": if a.uniform {
+                "uniform (unbiased)"
+            } else {
+                "adaptive (biased, consistent)"
+            },
             "samples": out.samples,
             "spp": out.samples as f64 / pixels,
             "min_pixel_samples": out.counts.iter().copied().min().unwrap_or(0),

@@ -65,6 +65,7 @@ fn renders_png_pfm_and_rgb565_with_json() {
     assert_eq!(v["paths"], 64 * 64 * 2);
     assert_eq!(v["budget"], "spp 2");
     assert_eq!(v["adaptive"], true);
+    assert_eq!(v["estimator"], "adaptive (biased, consistent)");
     assert_eq!(v["nonfinite"], 0);
     assert_eq!(v["leaks"], 0);
     assert!(v["min_pixel_samples"].as_u64().unwrap() >= 1);
@@ -302,6 +303,7 @@ fn budget_flags() {
         o,
     ]);
     assert_eq!(v["adaptive"], false);
+    assert_eq!(v["estimator"], "uniform (unbiased)");
     assert_eq!(
         (
             v["min_pixel_samples"].as_u64(),
@@ -330,4 +332,25 @@ fn budget_flags() {
         &run(&["render", s, "--budget-paths", "0"]),
         "--budget-paths",
     );
+}
+
+/// `render --help` says what the default estimator is: adaptive, biased and
+/// consistent; the unbiased one is `--uniform`.
+#[test]
+fn render_help_discloses_the_biased_default() {
+    let out = run(&["render", "--help"]);
+    assert!(out.status.success());
+    let help = String::from_utf8(out.stdout).unwrap();
+    for needle in [
+        "sampling is adaptive",
+        "biased and consistent",
+        "the bias vanishes as the budget grows",
+        "the unbiased estimator",
+        "--uniform",
+    ] {
+        assert!(
+            help.contains(needle),
+            "render --help lacks {needle:?}:\n{help}"
+        );
+    }
 }

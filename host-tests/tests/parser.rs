@@ -1,4 +1,4 @@
-//! Scene format v1 parser: one test per error kind of SCENE_FORMAT.md, each
+//! Scene format v1 parser: one test per error kind of docs/scene-format.md, each
 //! checking the reported line (arbitrary-input property tests that no input
 //! panics are in `stress_parse.rs`).
 

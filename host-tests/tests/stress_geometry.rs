@@ -3,7 +3,7 @@
 //! centres up to 1e6 from the origin, planes of any orientation with offsets
 //! up to 1e6, rays from near and far, grazing, parallel and silhouette rays.
 //!
-//! What is checked (issue 5), with the law behind it:
+//! What is checked, with the law behind it:
 //! * a reported hit point lies on the exact surface within the hit's stated
 //!   error bound (`Hit::error`, pbrt's forward error analysis);
 //! * no true hit is missed, and no hit is invented, unless the ray passes
@@ -729,9 +729,9 @@ fn cone_sample_from_a_hit_leaves_cleanly() {
 
 /// smallpt's walls (r = 1e5) seen from inside the box: the near root must be
 /// accurate in absolute terms, not only relative to |o − c| ≈ 1e5, or the
-/// rim where the lamp pokes 0.27 units through the ceiling moves (it did:
-/// 23 % too much light on the rim pixels before `Sphere::intersect` computed
-/// |o − c|² − r² in double-f32 near the surface).
+/// rim where the lamp pokes 0.27 units through the ceiling moves and its
+/// pixels get too much light (why `Sphere::intersect` computes |o − c|² − r²
+/// in double-f32 near the surface; docs/stability.md).
 #[test]
 fn huge_sphere_near_root_is_accurate_in_absolute_terms() {
     let ceiling = Sphere::new(Vec3::new(50.0, -99_918.4, 81.6), 100_000.0, 0);
@@ -764,7 +764,7 @@ fn huge_sphere_near_root_is_accurate_in_absolute_terms() {
         "rays / max |t - t_exact| / max(t, 1)",
         format!("{n} / {worst:.2e}"),
     );
-    // measured 4.6e-6 (the rounding of b and √disc, ~1e5 ε / q); with
-    // |o − c|² − r² in plain f32 it was 1.5e-2
+    // the rounding of b and √disc, ~1e5 ε / q, gives 4.6e-6; |o − c|² − r²
+    // in plain f32 gives 1.5e-2 (docs/stability.md)
     assert!(n > 10_000 && worst < 2e-5, "{worst:e}");
 }

@@ -1,4 +1,4 @@
-//! Whole-image stress tests (issue 5): smallpt's r = 1e5 walls against a
+//! Whole-image stress tests: smallpt's r = 1e5 walls against a
 //! double-precision reference, scale invariance of radiance, a horizon under
 //! a tiny sun against the analytic radiance, finite pixels with the film's
 //! non-finite counter, and degenerate but legal scenes.
@@ -67,9 +67,10 @@ fn reference_noise_mse(name: &str) -> f64 {
 /// smallpt's scene: walls are spheres of radius 1e5 (f32 ulp at 1e5 is
 /// 0.0078). An unbiased estimator's MSE against an exact image falls as 1/N
 /// (law: the variance of a mean of N independent samples is σ²/N); a
-/// plateau above the noise is bias. Before `Sphere::intersect` computed
-/// |o − c|² − r² in double-f32, the rim where the lamp meets the ceiling was
-/// 23 % too bright and the bias² was 3.7e-3, five times the 1024-spp noise.
+/// plateau above the noise is bias. With |o − c|² − r² in plain f32 instead
+/// of `Sphere::intersect`'s double-f32, the rim where the lamp meets the
+/// ceiling is too bright and the bias² five times the 1024-spp noise
+/// (docs/stability.md).
 #[test]
 fn smallpt_converges_to_the_double_precision_reference() {
     let scene = parse(&scene_text("smallpt")).unwrap();
@@ -114,8 +115,8 @@ fn smallpt_converges_to_the_double_precision_reference() {
         (-1.15..=-0.85).contains(&slope),
         "MSE does not fall as 1/N: slope {slope}"
     );
-    // measured 4.2e-4 at 1024 spp and ~3e-4 here (a few rim pixels, see
-    // docs/stability.md); the f32 c term alone gave 3.7e-3
+    // 4.2e-4 at 1024 spp and ~3e-4 here (a few rim pixels); the plain f32
+    // c term gives 3.7e-3 (docs/stability.md)
     assert!(
         bias2 < 0.25 * noise,
         "bias² {bias2:e} against noise {noise:e}"
@@ -576,7 +577,7 @@ fn camera_inside_a_diffuse_sphere_around_a_lamp_sees_the_enclosure_radiance() {
 }
 
 /// The camera inside the lamp itself sees nothing: a lamp emits outward
-/// only and reflects nothing (SCENE_FORMAT.md), so from inside it is black.
+/// only and reflects nothing (docs/scene-format.md), so from inside it is black.
 #[test]
 fn camera_inside_a_lamp_sees_black() {
     let out = degenerate(

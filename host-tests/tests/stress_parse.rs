@@ -1,7 +1,7 @@
 //! The parser on arbitrary input (the CI counterpart of the cargo-fuzz
 //! target in `fuzz/`, which needs nightly): it never panics, an error names
 //! a line that exists, and an accepted scene holds only valid values.
-//! SCENE_FORMAT.md: "Parsing never panics, whatever bytes it is given."
+//! docs/scene-format.md: "Parsing never panics, whatever bytes it is given."
 
 mod common;
 

@@ -122,9 +122,9 @@ impl Sphere {
         let q = if b >= 0.0 { b + sq } else { b - sq };
         // origin within 3 % of r from the surface: |f|² − r² cancels, and its
         // f32 rounding (up to ~3ε|f|², over 1000 for smallpt's r = 1e5
-        // walls) moves the near root by ~1.5εr = 0.01, which shifted the rim
-        // where smallpt's lamp meets the ceiling by a fifth of a pixel (23 %
-        // too bright there). Recompute it where it is used (c/q), or where
+        // walls) moves the near root by ~1.5εr = 0.01, which shifts the rim
+        // where smallpt's lamp meets the ceiling by a fifth of a pixel
+        // (docs/stability.md). Recompute it where it is used (c/q), or where
         // its sign, which picks the root, is within its rounding.
         if math::abs(c) < self.radius2 * 0.0625
             && (c > 0.0 || b < 0.0 || -c <= math::gamma(8) * (c + 2.0 * self.radius2))
@@ -218,7 +218,7 @@ impl Sphere {
         // distance from the surface of the true point moved by e: at most
         // e·n + |e|²/(2r), and at most |e|. The second-order term matters
         // only for spheres a few f32 grid steps wide (r = 0.07 at 8e5, where
-        // coordinates are 0.0625 apart): e·n alone was 3 % short there
+        // coordinates are 0.0625 apart): e·n alone falls short there
         let e1 = err.x + err.y + err.z; // ≥ |e|
         let error = math::min(err.dot(normal.abs()) + e1 * e1 * (0.5 / self.radius), e1);
         Hit {

@@ -7,7 +7,7 @@
 //! powers of five is a sixth of the firmware's flash budget. This module
 //! accepts exactly the strings `core` accepts and gives the same value for
 //! each (the tests compare the two on edge cases and on a random sweep), so
-//! scenes mean the same as before, on every target.
+//! a scene means what `core`'s parser would read, on every target.
 //!
 //! Method: numbers of at most 24 significant bits with a decimal exponent in
 //! ±10 (most of a scene file) take Clinger's fast path, one exact f32
