@@ -40,3 +40,196 @@ pub fn compare(img: &Image, reference: &Image) -> Result<Errors, String> {
         mean_diff: diff / n,
     })
 }
+
+/// z-scores of one grouping of the pixels (per group and channel: the mean
+/// difference over its standard error).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZGroup {
+    /// Groups × 3 channels that have a non-zero standard error.
+    pub count: usize,
+    /// Mean of z²: near 1 when the differences are noise (± √(2/count)
+    /// for independent values; the three channels of a group share their
+    /// paths, so rather ± √(6/count)).
+    pub chi2_per_dof: f64,
+    /// Largest |z|.
+    pub max_abs_z: f64,
+    /// The group (row-major index) and channel of the largest |z|.
+    pub worst: (usize, usize),
+}
+
+/// How an image with per-pixel standard errors agrees with a reference
+/// with its own: whether their difference is pure noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BiasReport {
+    /// Mean squared difference over pixels and channels.
+    pub mse: f64,
+    /// Mean of `se_image² + se_reference²`: the MSE that noise alone gives.
+    pub expected_mse: f64,
+    /// z of the whole image's mean difference, per channel.
+    pub image_z: [f64; 3],
+    /// One group per pixel.
+    pub pixels: ZGroup,
+    /// One group per row.
+    pub rows: ZGroup,
+    /// One group per `block` × `block` square (partial at the edges).
+    pub blocks: ZGroup,
+}
+
+/// Groups pixels by `group(x, y)` (< `n`) and returns the z-scores of the
+/// group means of `img − reference`, whose variance is the sum of both
+/// images' squared standard errors.
+fn group_z(
+    img: &Image,
+    img_se: &Image,
+    reference: &Image,
+    ref_se: &Image,
+    n: usize,
+    group: &dyn Fn(u32, u32) -> usize,
+) -> (ZGroup, Vec<[f64; 3]>) {
+    let mut d = vec![[0.0f64; 3]; n];
+    let mut v = vec![[0.0f64; 3]; n];
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let g = group(x, y);
+            let (a, sa, r, sr) = (
+                img.get(x, y),
+                img_se.get(x, y),
+                reference.get(x, y),
+                ref_se.get(x, y),
+            );
+            for (c, (a, sa, r, sr)) in [
+                (a.x, sa.x, r.x, sr.x),
+                (a.y, sa.y, r.y, sr.y),
+                (a.z, sa.z, r.z, sr.z),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                d[g][c] += f64::from(a) - f64::from(r);
+                v[g][c] += f64::from(sa).powi(2) + f64::from(sr).powi(2);
+            }
+        }
+    }
+    let mut z = vec![[0.0f64; 3]; n];
+    let mut out = ZGroup {
+        count: 0,
+        chi2_per_dof: 0.0,
+        max_abs_z: 0.0,
+        worst: (0, 0),
+    };
+    for g in 0..n {
+        for c in 0..3 {
+            if v[g][c] > 0.0 {
+                let zz = d[g][c] / v[g][c].sqrt();
+                z[g][c] = zz;
+                out.count += 1;
+                out.chi2_per_dof += zz * zz;
+                if zz.abs() > out.max_abs_z {
+                    out.max_abs_z = zz.abs();
+                    out.worst = (g, c);
+                }
+            }
+        }
+    }
+    out.chi2_per_dof /= out.count.max(1) as f64;
+    (out, z)
+}
+
+/// Checks whether `img` (with per-pixel standard errors `img_se`) and
+/// `reference` (with `ref_se`) differ by more than their noise: the
+/// z-scores of the differences of pixel, row, block and image means.
+pub fn bias_z(
+    img: &Image,
+    img_se: &Image,
+    reference: &Image,
+    ref_se: &Image,
+    block: u32,
+) -> Result<BiasReport, String> {
+    let size = (img.width, img.height);
+    for (what, i) in [
+        ("standard-error map", img_se),
+        ("reference", reference),
+        ("reference standard-error map", ref_se),
+    ] {
+        if (i.width, i.height) != size {
+            return Err(format!(
+                "size mismatch: the {what} is {}x{}, the image {}x{}",
+                i.width, i.height, size.0, size.1
+            ));
+        }
+    }
+    if block == 0 {
+        return Err("the block size must be at least 1".into());
+    }
+    let e = compare(img, reference)?;
+    let (w, h) = size;
+    let bw = w.div_ceil(block);
+    let zg =
+        |n: usize, f: &dyn Fn(u32, u32) -> usize| group_z(img, img_se, reference, ref_se, n, f);
+    let (pixels, _) = zg((w * h) as usize, &|x, y| (y * w + x) as usize);
+    let (rows, _) = zg(h as usize, &|_, y| y as usize);
+    let (blocks, _) = zg((bw * h.div_ceil(block)) as usize, &|x, y| {
+        ((y / block) * bw + x / block) as usize
+    });
+    let (_, whole) = zg(1, &|_, _| 0);
+    let mut expected = 0.0;
+    for (a, b) in img_se.pixels.iter().zip(&ref_se.pixels) {
+        for (a, b) in [(a.x, b.x), (a.y, b.y), (a.z, b.z)] {
+            expected += f64::from(a).powi(2) + f64::from(b).powi(2);
+        }
+    }
+    Ok(BiasReport {
+        mse: e.mse,
+        expected_mse: expected / (img.pixels.len() * 3).max(1) as f64,
+        image_z: whole[0],
+        pixels,
+        rows,
+        blocks,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use micropt::Color;
+
+    fn flat(w: u32, h: u32, v: f32) -> Image {
+        let mut i = Image::new(w, h);
+        i.pixels.fill(Color::new(v, v, v));
+        i
+    }
+
+    #[test]
+    fn bias_z_scales_as_the_square_root_of_the_group_size() {
+        // a constant offset d with per-pixel standard errors s (image and
+        // reference each): the mean of n pixels has standard error
+        // s·sqrt(2/n), so z = d·sqrt(n) / (s·sqrt(2))
+        let (img, reference, se) = (flat(16, 16, 0.1), flat(16, 16, 0.0), flat(16, 16, 0.1));
+        let z = bias_z(&img, &se, &reference, &se, 8).unwrap();
+        let want = |n: f64| 0.1 * n.sqrt() / (0.1 * 2f64.sqrt());
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-5 * b;
+        assert!(close(z.pixels.max_abs_z, want(1.0)), "{z:?}");
+        assert!(close(z.rows.max_abs_z, want(16.0)), "{z:?}");
+        assert!(close(z.blocks.max_abs_z, want(64.0)), "{z:?}");
+        assert!(close(z.image_z[1], want(256.0)), "{z:?}");
+        assert_eq!(
+            (z.pixels.count, z.rows.count, z.blocks.count),
+            (768, 48, 12)
+        );
+        assert!(close(z.rows.chi2_per_dof, want(16.0).powi(2)), "{z:?}");
+        assert!(close(z.mse, 0.01) && close(z.expected_mse, 0.02), "{z:?}");
+        // a 10x12 image in 8x8 blocks: 2x2 blocks, the edge ones partial
+        let z = bias_z(
+            &flat(10, 12, 0.1),
+            &flat(10, 12, 0.1),
+            &flat(10, 12, 0.0),
+            &flat(10, 12, 0.1),
+            8,
+        )
+        .unwrap();
+        assert_eq!(z.blocks.count, 12);
+        assert!(close(z.blocks.max_abs_z, want(64.0)), "{z:?}");
+        assert!(bias_z(&img, &se, &flat(8, 8, 0.0), &se, 8).is_err());
+        assert!(bias_z(&img, &se, &reference, &se, 0).is_err());
+    }
+}
