@@ -20,7 +20,8 @@ def mse_of(img, ref):
 print("| scene | spp | uniform MSE | adaptive MSE | ratio | adaptive mean diff |")
 print("|---|---|---|---|---|---|")
 with tempfile.TemporaryDirectory() as tmp:
-    for name in sorted(f[:-4] for f in os.listdir(DATA) if f.endswith(".pfm")):
+    # NAME.se.pfm is a reference's standard-error map, not a reference
+    for name in sorted(f[:-4] for f in os.listdir(DATA) if f.endswith(".pfm") and not f.endswith(".se.pfm")):
         meta = json.load(open(f"{DATA}/{name}.json"))
         noise = meta["rms_standard_error"] ** 2
         for spp in SPPS:

@@ -5,8 +5,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use micropt::{AdaptiveOptions, Budget, Options, Skip};
 use micropt_host::bench;
 use micropt_host::image::{Image, OutputFormat};
-use micropt_host::metrics::compare;
+use micropt_host::metrics::{ZGroup, bias_z, compare};
 use micropt_host::render::{BudgetJob, load_scene, render_budget};
+use micropt_host::smallpt::{self, SmallptJob, SmallptOptions, SmallptScene};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -39,6 +40,68 @@ enum Command {
     /// geometric series of spp for each variant, write CSV, markdown and
     /// log-log plots.
     Bench(BenchArgs),
+    /// smallpt's algorithm in double precision (BSDF sampling only, exact
+    /// Fresnel): render a scene of spheres, or compare micropt's efficiency
+    /// with it.
+    Smallpt {
+        #[command(subcommand)]
+        command: SmallptCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum SmallptCommand {
+    /// Render a scene of spheres with smallpt's algorithm in f64.
+    Render(SmallptRenderArgs),
+    /// micropt against smallpt on one scene, both on one thread: MSE against
+    /// the reference (its own noise subtracted), seconds and efficiency
+    /// 1/(MSE·s) at each spp, as a markdown table.
+    Bench(SmallptBenchArgs),
+}
+
+#[derive(clap::Args)]
+struct SmallptRenderArgs {
+    /// Scene file (spheres only).
+    scene: PathBuf,
+    /// Output file (.pfm, .png or .rgb565) [default: SCENE-STEM-smallpt.pfm].
+    #[arg(short, long, value_name = "OUT")]
+    output: Option<PathBuf>,
+    /// Also write each pixel's standard error to this PFM (needs spp >= 8).
+    #[arg(long, value_name = "PFM")]
+    se: Option<PathBuf>,
+    /// Samples per pixel, a multiple of 4 (2x2 strata).
+    #[arg(long, default_value_t = 64, value_parser = parse_spp4)]
+    spp: u32,
+    #[command(flatten)]
+    frame: FrameArgs,
+    /// End paths at surfaces that reflect nothing (smallpt traces them on
+    /// with zero weight until the roulette); same expected image.
+    #[arg(long)]
+    cutoff: bool,
+    /// Print one JSON line of figures at the end.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args)]
+struct SmallptBenchArgs {
+    /// Scene file [default: the repository's scenes/smallpt.scene].
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Reference PFM, with its .json beside it [default:
+    /// host-tests/data/smallpt.pfm].
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Samples per pixel, multiples of 4 (repeatable) [default: 64 128 256
+    /// 512 1024].
+    #[arg(long = "spp", value_name = "N", value_parser = parse_spp4)]
+    spp: Vec<u32>,
+    /// Seeds per spp.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    seeds: u32,
+    /// Run smallpt with --cutoff.
+    #[arg(long)]
+    cutoff: bool,
 }
 
 #[derive(clap::Args)]
@@ -72,6 +135,20 @@ struct BenchArgs {
     seeds: Option<u32>,
 }
 
+/// Size, seed and threads of a render (`render` and `smallpt render`).
+#[derive(clap::Args)]
+struct FrameArgs {
+    /// Image size WxH [default: the scene's resolution, else 64x64].
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    /// Render seed: the image is a pure function of scene, size, spp and seed.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads [default: all cores]; the image does not depend on it.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    threads: Option<u32>,
+}
+
 #[derive(clap::Args)]
 struct RenderArgs {
     /// Scene file (format v1, docs/scene-format.md).
@@ -101,15 +178,8 @@ struct RenderArgs {
     /// specialize, horizon, unreachable-lights, closed, slabs, or all.
     #[arg(long, value_name = "LIST", value_parser = parse_skips)]
     no_skip: Option<Skip>,
-    /// Image size WxH [default: the scene's resolution, else 64x64].
-    #[arg(long, value_name = "WxH", value_parser = parse_size)]
-    size: Option<(u32, u32)>,
-    /// Render seed: the image is a pure function of scene, size, spp and seed.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Worker threads [default: all cores]; the image does not depend on it.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
-    threads: Option<u32>,
+    #[command(flatten)]
+    frame: FrameArgs,
     /// Exposure multiplier applied before tone mapping (PNG, rgb565).
     #[arg(long, default_value_t = 1.0, value_parser = parse_exposure)]
     exposure: f32,
@@ -128,6 +198,26 @@ struct CompareArgs {
     /// Exit with status 1 if the RMSE exceeds this.
     #[arg(long, value_name = "RMSE")]
     max_rmse: Option<f64>,
+    /// The image's per-pixel standard errors (PFM); with --reference-se,
+    /// prints z-scores of the differences of pixel, row, block and image
+    /// means: whether image and reference differ by more than noise.
+    #[arg(long, value_name = "PFM", requires = "reference_se")]
+    se: Option<PathBuf>,
+    /// The reference's per-pixel standard errors (PFM).
+    #[arg(long, value_name = "PFM", requires = "se")]
+    reference_se: Option<PathBuf>,
+    /// Block size of the block z-scores.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..))]
+    block: u32,
+}
+
+fn parse_spp4(s: &str) -> Result<u32, String> {
+    match s.parse::<u32>() {
+        Ok(n) if n > 0 && n % 4 == 0 => Ok(n),
+        _ => Err(format!(
+            "'{s}' is not a positive multiple of 4 (smallpt samples 2x2 strata)"
+        )),
+    }
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -186,6 +276,12 @@ pub fn main() -> ExitCode {
         Command::Render(a) => cmd_render(a),
         Command::Compare(a) => cmd_compare(a),
         Command::Bench(a) => cmd_bench(a),
+        Command::Smallpt {
+            command: SmallptCommand::Render(a),
+        } => cmd_smallpt_render(a),
+        Command::Smallpt {
+            command: SmallptCommand::Bench(a),
+        } => cmd_smallpt_bench(a),
     };
     match result {
         Ok(code) => code,
@@ -204,21 +300,22 @@ fn say(text: String) -> Result<(), String> {
         .map_err(|e| format!("cannot write to stdout: {e}"))
 }
 
+/// `output`, or SCENE-STEM + `suffix` in the current directory.
+fn output_or_default(output: Option<PathBuf>, scene: &std::path::Path, suffix: &str) -> PathBuf {
+    output.unwrap_or_else(|| {
+        let stem = scene
+            .file_stem()
+            .map_or("out".into(), |s| s.to_string_lossy().into_owned());
+        PathBuf::from(format!("{stem}{suffix}"))
+    })
+}
+
 fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
-    let output = match a.output {
-        Some(o) => o,
-        None => {
-            let stem = a
-                .scene
-                .file_stem()
-                .map_or("out".into(), |s| s.to_string_lossy().into_owned());
-            PathBuf::from(format!("{stem}.png"))
-        }
-    };
+    let output = output_or_default(a.output, &a.scene, ".png");
     // check the extension before spending time on the render
     OutputFormat::from_path(&output)?;
     let scene = load_scene(&a.scene)?;
-    let (width, height) = a.size.or(scene.resolution()).unwrap_or((64, 64));
+    let (width, height) = a.frame.size.or(scene.resolution()).unwrap_or((64, 64));
     let budget = match (a.spp, a.budget_paths, a.budget_ms) {
         (_, Some(p), _) => Budget::Paths(p),
         (_, _, Some(ms)) => Budget::Deadline(ms.saturating_mul(1000)),
@@ -228,8 +325,8 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
         width,
         height,
         budget,
-        seed: a.seed,
-        threads: a.threads.map_or(0, |t| t as usize),
+        seed: a.frame.seed,
+        threads: a.frame.threads.map_or(0, |t| t as usize),
         options: Options {
             skip: a.no_skip.unwrap_or(Skip::ALL),
             ..Options::default()
@@ -279,7 +376,7 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
             "spp": out.samples as f64 / pixels,
             "min_pixel_samples": out.counts.iter().copied().min().unwrap_or(0),
             "max_pixel_samples": out.counts.iter().copied().max().unwrap_or(0),
-            "seed": a.seed,
+            "seed": a.frame.seed,
             "preview_seconds": out.preview_seconds,
             "seconds": out.seconds,
             "paths": s.paths,
@@ -305,6 +402,40 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode, String> {
         "mse {:.6e}\nrmse {:.6e}\nrelmse {:.6e}\nmean_diff {:+.6e}",
         e.mse, e.rmse, e.rel_mse, e.mean_diff
     ))?;
+    if let (Some(se), Some(rse)) = (&a.se, &a.reference_se) {
+        let z = bias_z(
+            &img,
+            &Image::load_pfm(se)?,
+            &reference,
+            &Image::load_pfm(rse)?,
+            a.block,
+        )?;
+        let ch = ["r", "g", "b"];
+        let group = |name: &str, g: &ZGroup, unit: &str| {
+            format!(
+                "z {name}: {} values, chi2/dof {:.3} (noise: 1 +- {:.3}), max |z| {:.2} at {unit} {} {}",
+                g.count,
+                g.chi2_per_dof,
+                // the channels of a group are strongly correlated (same
+                // paths): about count/3 independent values
+                (6.0 / g.count.max(1) as f64).sqrt(),
+                g.max_abs_z,
+                g.worst.0,
+                ch[g.worst.1]
+            )
+        };
+        say(format!(
+            "expected_mse {:.6e} (noise of both)\nmse/expected {:.4}\nz image: r {:+.2} g {:+.2} b {:+.2}\n{}\n{}\n{}",
+            z.expected_mse,
+            z.mse / z.expected_mse,
+            z.image_z[0],
+            z.image_z[1],
+            z.image_z[2],
+            group("rows", &z.rows, "row"),
+            group(&format!("{0}x{0} blocks", a.block), &z.blocks, "block"),
+            group("pixels", &z.pixels, "pixel"),
+        ))?;
+    }
     match a.max_rmse {
         Some(max) if e.rmse > max => {
             eprintln!("micropt: rmse {:.6e} exceeds --max-rmse {max:e}", e.rmse);
@@ -402,5 +533,83 @@ fn cmd_bench(a: BenchArgs) -> Result<ExitCode, String> {
         eprintln!("wrote {}", p.display());
     }
     eprintln!("bench finished in {:.1} s", started.elapsed().as_secs_f64());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_smallpt_render(a: SmallptRenderArgs) -> Result<ExitCode, String> {
+    let output = output_or_default(a.output, &a.scene, "-smallpt.pfm");
+    OutputFormat::from_path(&output)?;
+    if a.se.is_some() && a.spp < 8 {
+        return Err("--se needs --spp 8 or more (two samples in each stratum)".into());
+    }
+    let scene = SmallptScene::load(&a.scene)?;
+    let (width, height) = a.frame.size.or(scene.resolution).unwrap_or((64, 64));
+    let out = smallpt::render(
+        &scene,
+        &SmallptJob {
+            width,
+            height,
+            spp: a.spp,
+            seed: a.frame.seed,
+            threads: a.frame.threads.map_or(0, |t| t as usize),
+            options: SmallptOptions { cutoff: a.cutoff },
+        },
+    )?;
+    out.image.save(&output, 1.0)?;
+    if let Some(se) = &a.se {
+        out.standard_error.save(se, 1.0)?;
+    }
+    if a.json {
+        let v = serde_json::json!({
+            "scene": a.scene.display().to_string(),
+            "output": output.display().to_string(),
+            "renderer": "smallpt (f64)",
+            "cutoff": a.cutoff,
+            "width": width,
+            "height": height,
+            "spp": a.spp,
+            "seed": a.frame.seed,
+            "seconds": out.seconds,
+            "paths": out.paths,
+            "rays": out.rays,
+            "threads": out.threads,
+            "paths_per_second": out.paths_per_second(),
+            "rays_per_second": out.rays as f64 / out.seconds.max(1e-9),
+            "mean_rgb": out.image.mean(),
+        });
+        say(v.to_string())?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn cmd_smallpt_bench(a: SmallptBenchArgs) -> Result<ExitCode, String> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let cfg = bench::VsSmallptConfig {
+        scene_path: a
+            .scene
+            .unwrap_or_else(|| root.join("scenes").join("smallpt.scene")),
+        reference_path: a
+            .reference
+            .unwrap_or_else(|| root.join("host-tests").join("data").join("smallpt.pfm")),
+        spp: if a.spp.is_empty() {
+            vec![64, 128, 256, 512, 1024]
+        } else {
+            a.spp
+        },
+        seeds: a.seeds,
+        smallpt: SmallptOptions { cutoff: a.cutoff },
+    };
+    let machine = bench::machine_summary();
+    let (runs, noise) = bench::vs_smallpt(&cfg, &mut |l| eprintln!("{l}"))?;
+    say(format!(
+        "micropt (`micropt render {} --spp N --uniform --threads 1`) against smallpt in f64{} (`micropt smallpt render … --threads 1`), {} seeds per spp; \
+         MSE: mean over seeds less the reference's noise {noise:.3e}; seconds: median; eff = 1/(MSE·s); \
+         ratios micropt/smallpt. {machine}; load at the end {}.\n\n{}",
+        cfg.scene_path.display(),
+        if a.cutoff { " with --cutoff" } else { "" },
+        cfg.seeds,
+        bench::load_average(),
+        bench::vs_smallpt_table(&runs, noise)
+    ))?;
     Ok(ExitCode::SUCCESS)
 }

@@ -10,6 +10,7 @@ pub mod image;
 pub mod metrics;
 pub mod reference;
 pub mod render;
+pub mod smallpt;
 
 pub use image::Image;
 pub use render::{

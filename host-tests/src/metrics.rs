@@ -41,103 +41,235 @@ pub fn compare(img: &Image, reference: &Image) -> Result<Errors, String> {
     })
 }
 
-/// The bias of one region of an image (a row or a square block): the
-/// pooled mean over several independent renders against the reference's
-/// mean over the same pixels, in units of the combined standard error.
+/// z-scores of one grouping of the pixels (per group and channel: the mean
+/// difference over its standard error).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RegionBias {
-    /// Left column of the region.
-    pub x: u32,
-    /// Top row of the region.
-    pub y: u32,
-    /// Pooled mean of the renders over the region (channel average).
-    pub mean: f64,
-    /// The reference's mean over the region.
-    pub reference: f64,
-    /// `(mean − reference) / √(se_renders² + se_reference²)`.
-    pub z: f64,
+pub struct ZGroup {
+    /// Groups × 3 channels that have a non-zero standard error.
+    pub count: usize,
+    /// Mean of z²: near 1 when the differences are noise (± √(2/count)
+    /// for independent values; the three channels of a group share their
+    /// paths, so rather ± √(6/count)).
+    pub chi2_per_dof: f64,
+    /// Largest |z|.
+    pub max_abs_z: f64,
+    /// The group (row-major index) and channel of the largest |z|.
+    pub worst: (usize, usize),
 }
 
-impl RegionBias {
-    /// `mean / reference − 1`.
-    pub fn relative(&self) -> f64 {
-        self.mean / self.reference - 1.0
-    }
+/// How an image with per-pixel standard errors agrees with a reference
+/// with its own: whether their difference is pure noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BiasReport {
+    /// Mean squared difference over pixels and channels.
+    pub mse: f64,
+    /// Mean of `se_image² + se_reference²`: the MSE that noise alone gives.
+    pub expected_mse: f64,
+    /// z of the whole image's mean difference, per channel.
+    pub image_z: [f64; 3],
+    /// One group per pixel.
+    pub pixels: ZGroup,
+    /// One group per row.
+    pub rows: ZGroup,
+    /// One group per `block` × `block` square (partial at the edges).
+    pub blocks: ZGroup,
 }
 
-/// Rows and `block`×`block` squares of `renders` (independent renders of
-/// one scene, at least two) against `reference`, whose per-pixel standard
-/// error is `reference_se`.
-///
-/// A region's value is the mean over its pixels and the three channels.
-/// The renders' standard error of that mean comes from its spread over the
-/// renders (Student: with `k` renders, `s / √k`); the reference's from its
-/// per-pixel errors, the channel average of a pixel taken as correlated
-/// (its error the mean of the three) and pixels as independent. An
-/// unbiased renderer gives z-scores distributed as Student's t with
-/// `k − 1` degrees of freedom (nearly normal for 16 or more renders).
-pub fn region_bias(
-    renders: &[Image],
+/// Groups pixels by `group(x, y)` (< `n`) and returns the z-scores of the
+/// group means of `img − reference`, whose variance is the sum of both
+/// images' squared standard errors.
+fn group_z(
+    img: &Image,
+    img_se: &Image,
     reference: &Image,
-    reference_se: &Image,
-    block: u32,
-) -> Result<(Vec<RegionBias>, Vec<RegionBias>), String> {
-    if renders.len() < 2 {
-        return Err("region_bias needs at least two renders".into());
+    ref_se: &Image,
+    n: usize,
+    group: &dyn Fn(u32, u32) -> usize,
+) -> (ZGroup, Vec<[f64; 3]>) {
+    let mut d = vec![[0.0f64; 3]; n];
+    let mut v = vec![[0.0f64; 3]; n];
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let g = group(x, y);
+            let (a, sa, r, sr) = (
+                img.get(x, y),
+                img_se.get(x, y),
+                reference.get(x, y),
+                ref_se.get(x, y),
+            );
+            for (c, (a, sa, r, sr)) in [
+                (a.x, sa.x, r.x, sr.x),
+                (a.y, sa.y, r.y, sr.y),
+                (a.z, sa.z, r.z, sr.z),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                d[g][c] += f64::from(a) - f64::from(r);
+                v[g][c] += f64::from(sa).powi(2) + f64::from(sr).powi(2);
+            }
+        }
     }
-    let (w, h) = (reference.width, reference.height);
-    for img in renders.iter().chain([reference_se]) {
-        if (img.width, img.height) != (w, h) {
+    let mut z = vec![[0.0f64; 3]; n];
+    let mut out = ZGroup {
+        count: 0,
+        chi2_per_dof: 0.0,
+        max_abs_z: 0.0,
+        worst: (0, 0),
+    };
+    for g in 0..n {
+        for c in 0..3 {
+            if v[g][c] > 0.0 {
+                let zz = d[g][c] / v[g][c].sqrt();
+                z[g][c] = zz;
+                out.count += 1;
+                out.chi2_per_dof += zz * zz;
+                if zz.abs() > out.max_abs_z {
+                    out.max_abs_z = zz.abs();
+                    out.worst = (g, c);
+                }
+            }
+        }
+    }
+    out.chi2_per_dof /= out.count.max(1) as f64;
+    (out, z)
+}
+
+/// Checks whether `img` (with per-pixel standard errors `img_se`) and
+/// `reference` (with `ref_se`) differ by more than their noise: the
+/// z-scores of the differences of pixel, row, block and image means.
+pub fn bias_z(
+    img: &Image,
+    img_se: &Image,
+    reference: &Image,
+    ref_se: &Image,
+    block: u32,
+) -> Result<BiasReport, String> {
+    let size = (img.width, img.height);
+    for (what, i) in [
+        ("standard-error map", img_se),
+        ("reference", reference),
+        ("reference standard-error map", ref_se),
+    ] {
+        if (i.width, i.height) != size {
             return Err(format!(
-                "size mismatch: {}x{} against {w}x{h}",
-                img.width, img.height
+                "size mismatch: the {what} is {}x{}, the image {}x{}",
+                i.width, i.height, size.0, size.1
             ));
         }
     }
     if block == 0 {
-        return Err("block size must be at least 1".into());
+        return Err("the block size must be at least 1".into());
     }
-    let avg = |c: micropt::Color| (f64::from(c.x) + f64::from(c.y) + f64::from(c.z)) / 3.0;
-    let region = |x0: u32, y0: u32, x1: u32, y1: u32| {
-        let n = f64::from((x1 - x0) * (y1 - y0));
-        let mut means = Vec::with_capacity(renders.len());
-        for img in renders {
-            let mut s = 0.0;
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    s += avg(img.get(x, y));
-                }
-            }
-            means.push(s / n);
+    let e = compare(img, reference)?;
+    let (w, h) = size;
+    let bw = w.div_ceil(block);
+    let zg =
+        |n: usize, f: &dyn Fn(u32, u32) -> usize| group_z(img, img_se, reference, ref_se, n, f);
+    let (pixels, _) = zg((w * h) as usize, &|x, y| (y * w + x) as usize);
+    let (rows, _) = zg(h as usize, &|_, y| y as usize);
+    let (blocks, _) = zg((bw * h.div_ceil(block)) as usize, &|x, y| {
+        ((y / block) * bw + x / block) as usize
+    });
+    let (_, whole) = zg(1, &|_, _| 0);
+    let mut expected = 0.0;
+    for (a, b) in img_se.pixels.iter().zip(&ref_se.pixels) {
+        for (a, b) in [(a.x, b.x), (a.y, b.y), (a.z, b.z)] {
+            expected += f64::from(a).powi(2) + f64::from(b).powi(2);
         }
-        let k = means.len() as f64;
-        let mean = means.iter().sum::<f64>() / k;
-        let var_mean = means.iter().map(|m| (m - mean) * (m - mean)).sum::<f64>() / (k - 1.0) / k;
-        let (mut r, mut rv) = (0.0, 0.0);
-        for y in y0..y1 {
-            for x in x0..x1 {
-                r += avg(reference.get(x, y));
-                let se = avg(reference_se.get(x, y));
-                rv += se * se;
-            }
-        }
-        let (r, rv) = (r / n, rv / (n * n));
-        let sd = (var_mean + rv).sqrt();
-        let z = if sd > 0.0 { (mean - r) / sd } else { 0.0 };
-        RegionBias {
-            x: x0,
-            y: y0,
-            mean,
-            reference: r,
-            z,
-        }
+    }
+    Ok(BiasReport {
+        mse: e.mse,
+        expected_mse: expected / (img.pixels.len() * 3).max(1) as f64,
+        image_z: whole[0],
+        pixels,
+        rows,
+        blocks,
+    })
+}
+
+/// The mean of independent renders of one scene (at least two) and the
+/// standard error of that mean, per pixel and channel, from the renders'
+/// spread (`s / √k` for `k` renders): what [`bias_z`] takes for an image
+/// whose renderer writes no standard-error map of its own.
+pub fn pooled(renders: &[Image]) -> Result<(Image, Image), String> {
+    let Some(first) = renders.first() else {
+        return Err("pooling needs at least two renders".into());
     };
-    let rows = (0..h).map(|y| region(0, y, w, y + 1)).collect();
-    let mut blocks = Vec::new();
-    for by in (0..h).step_by(block as usize) {
-        for bx in (0..w).step_by(block as usize) {
-            blocks.push(region(bx, by, (bx + block).min(w), (by + block).min(h)));
-        }
+    if renders.len() < 2 {
+        return Err("pooling needs at least two renders".into());
     }
-    Ok((rows, blocks))
+    let (w, h) = (first.width, first.height);
+    if let Some(i) = renders.iter().find(|i| (i.width, i.height) != (w, h)) {
+        return Err(format!(
+            "size mismatch: {}x{} against {w}x{h}",
+            i.width, i.height
+        ));
+    }
+    let k = renders.len() as f64;
+    let (mut mean, mut se) = (Image::new(w, h), Image::new(w, h));
+    for (p, (m, e)) in mean.pixels.iter_mut().zip(se.pixels.iter_mut()).enumerate() {
+        let ch = |c: usize| {
+            let v: Vec<f64> = renders
+                .iter()
+                .map(|i| {
+                    let q = i.pixels[p];
+                    f64::from([q.x, q.y, q.z][c])
+                })
+                .collect();
+            let mu = v.iter().sum::<f64>() / k;
+            let var = v.iter().map(|x| (x - mu) * (x - mu)).sum::<f64>() / (k - 1.0);
+            (mu as f32, (var / k).sqrt() as f32)
+        };
+        let (x, y, z) = (ch(0), ch(1), ch(2));
+        *m = micropt::Color::new(x.0, y.0, z.0);
+        *e = micropt::Color::new(x.1, y.1, z.1);
+    }
+    Ok((mean, se))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use micropt::Color;
+
+    fn flat(w: u32, h: u32, v: f32) -> Image {
+        let mut i = Image::new(w, h);
+        i.pixels.fill(Color::new(v, v, v));
+        i
+    }
+
+    #[test]
+    fn bias_z_scales_as_the_square_root_of_the_group_size() {
+        // a constant offset d with per-pixel standard errors s (image and
+        // reference each): the mean of n pixels has standard error
+        // s·sqrt(2/n), so z = d·sqrt(n) / (s·sqrt(2))
+        let (img, reference, se) = (flat(16, 16, 0.1), flat(16, 16, 0.0), flat(16, 16, 0.1));
+        let z = bias_z(&img, &se, &reference, &se, 8).unwrap();
+        let want = |n: f64| 0.1 * n.sqrt() / (0.1 * 2f64.sqrt());
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-5 * b;
+        assert!(close(z.pixels.max_abs_z, want(1.0)), "{z:?}");
+        assert!(close(z.rows.max_abs_z, want(16.0)), "{z:?}");
+        assert!(close(z.blocks.max_abs_z, want(64.0)), "{z:?}");
+        assert!(close(z.image_z[1], want(256.0)), "{z:?}");
+        assert_eq!(
+            (z.pixels.count, z.rows.count, z.blocks.count),
+            (768, 48, 12)
+        );
+        assert!(close(z.rows.chi2_per_dof, want(16.0).powi(2)), "{z:?}");
+        assert!(close(z.mse, 0.01) && close(z.expected_mse, 0.02), "{z:?}");
+        // a 10x12 image in 8x8 blocks: 2x2 blocks, the edge ones partial
+        let z = bias_z(
+            &flat(10, 12, 0.1),
+            &flat(10, 12, 0.1),
+            &flat(10, 12, 0.0),
+            &flat(10, 12, 0.1),
+            8,
+        )
+        .unwrap();
+        assert_eq!(z.blocks.count, 12);
+        assert!(close(z.blocks.max_abs_z, want(64.0)), "{z:?}");
+        assert!(bias_z(&img, &se, &flat(8, 8, 0.0), &se, 8).is_err());
+        assert!(bias_z(&img, &se, &reference, &se, 0).is_err());
+    }
 }

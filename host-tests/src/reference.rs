@@ -32,9 +32,19 @@ pub fn scenes_dir() -> PathBuf {
         .join("scenes")
 }
 
-/// Names of all scenes that have a reference, sorted.
+/// Names of all scenes that have a reference, sorted (`NAME.se.pfm`, a
+/// reference's per-pixel standard errors, is not a reference).
 pub fn names() -> Vec<String> {
-    stems(&data_dir(), "pfm")
+    let mut v = stems(&data_dir(), "pfm");
+    v.retain(|n| !n.ends_with(".se"));
+    v
+}
+
+/// The per-pixel standard errors of reference `name` (`data/NAME.se.pfm`),
+/// where one is shipped.
+pub fn standard_error_map(name: &str) -> Option<Result<Image, String>> {
+    let p = data_dir().join(format!("{name}.se.pfm"));
+    p.is_file().then(|| Image::load_pfm(&p))
 }
 
 /// Names of all shipped scenes (`scenes/*.scene`), sorted.

@@ -354,3 +354,87 @@ fn render_help_discloses_the_biased_default() {
         );
     }
 }
+
+#[test]
+fn smallpt_renders_with_standard_errors_and_compares() {
+    let img = tmp("sp.pfm");
+    let se = tmp("sp.se.pfm");
+    let v = json_of(&[
+        "smallpt",
+        "render",
+        scene("smallpt.scene").to_str().unwrap(),
+        "--spp",
+        "8",
+        "--size",
+        "16x12",
+        "-o",
+        img.to_str().unwrap(),
+        "--se",
+        se.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(v["paths"], 16 * 12 * 8);
+    assert_eq!(v["renderer"], "smallpt (f64)");
+    let compare_with = |reference_se: &str| {
+        run(&[
+            "compare",
+            img.to_str().unwrap(),
+            img.to_str().unwrap(),
+            "--se",
+            se.to_str().unwrap(),
+            "--reference-se",
+            reference_se,
+        ])
+    };
+    // an image against itself: no difference, every z is 0
+    let out = compare_with(se.to_str().unwrap());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("mse/expected 0.0000"), "{text}");
+    assert!(text.contains("z rows: 36 values, chi2/dof 0.000"), "{text}");
+    // a standard-error map of another size is refused
+    let r = micropt_host::reference::data_dir().join("smallpt.se.pfm");
+    assert_clean_error(&compare_with(r.to_str().unwrap()), "size mismatch");
+}
+
+#[test]
+fn smallpt_bad_inputs() {
+    let s = scene("smallpt.scene");
+    assert_clean_error(
+        &run(&["smallpt", "render", s.to_str().unwrap(), "--spp", "6"]),
+        "multiple of 4",
+    );
+    assert_clean_error(
+        &run(&[
+            "smallpt",
+            "render",
+            s.to_str().unwrap(),
+            "--spp",
+            "4",
+            "--se",
+            tmp("x.se.pfm").to_str().unwrap(),
+        ]),
+        "--spp 8 or more",
+    );
+    assert_clean_error(
+        &run(&[
+            "smallpt",
+            "render",
+            scene("cornell.scene").to_str().unwrap(),
+        ]),
+        "spheres only",
+    );
+}
+
+#[test]
+fn smallpt_bench_prints_the_table() {
+    let out = run(&["smallpt", "bench", "--spp", "4", "--seeds", "1"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("| spp | seeds |"), "{text}");
+    assert!(text.contains("\n| 4 | 1 | "), "{text}");
+}
