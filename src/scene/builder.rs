@@ -1,0 +1,425 @@
+//! Building a scene in code: every value is checked as it is added, and
+//! [`SceneBuilder::build`] runs the load-time analysis.
+
+use super::{MAX_MATERIALS, MAX_PLANES, MAX_SPHERES, Scene};
+use crate::analysis::analyse_into;
+use crate::camera::{CameraError, CameraSpec};
+use crate::geometry::{Color, ObjectId, Plane, Sphere, Vec3};
+use crate::material::Material;
+use heapless::Vec;
+
+/// A material handle returned by [`SceneBuilder::material`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MaterialId(pub(crate) u16);
+
+/// What is wrong with a scene built in code (the parser maps these to
+/// line-numbered [`crate::parse::ParseError`]s).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneError {
+    /// More objects of this kind than the build's fixed capacity.
+    Capacity(&'static str),
+    /// A value outside its allowed range; names the quantity.
+    OutOfRange(&'static str),
+    /// A value that is NaN or infinite.
+    NotFinite,
+    /// A material handle from another scene, or out of range.
+    UnknownMaterial,
+    /// A plane with a light material (an infinite emitter).
+    LightOnPlane,
+    /// The scene has no camera.
+    NoCamera,
+    /// A second camera.
+    SecondCamera,
+    /// The camera specification is invalid.
+    Camera(CameraError),
+    /// A material kind (`"mirror"`, `"glass"`) whose code this build left
+    /// out (its cargo feature is off).
+    MaterialNotBuilt(&'static str),
+}
+
+impl core::fmt::Display for SceneError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            // `write_str` pieces rather than `{what}`: a `{}` of a `&str`
+            // links the formatter's padding code into the firmware
+            // (docs/firmware.md)
+            SceneError::Capacity(what) => {
+                f.write_str("too many ")?;
+                f.write_str(what)?;
+                f.write_str(" (fixed capacity of this build)")
+            }
+            SceneError::OutOfRange(what) => {
+                f.write_str(what)?;
+                f.write_str(" out of range")
+            }
+            SceneError::NotFinite => f.write_str("value is not finite"),
+            SceneError::UnknownMaterial => f.write_str("unknown material"),
+            SceneError::LightOnPlane => {
+                f.write_str("a plane cannot use a light material (infinite emitter)")
+            }
+            SceneError::NoCamera => f.write_str("the scene has no camera"),
+            SceneError::SecondCamera => f.write_str("a second camera (exactly one is allowed)"),
+            SceneError::Camera(CameraError::EyeEqualsTarget) => {
+                f.write_str("camera eye equals target")
+            }
+            SceneError::Camera(CameraError::UpParallelToView) => {
+                f.write_str("camera up vector is zero or parallel to the view direction")
+            }
+            SceneError::Camera(CameraError::FovOutOfRange) => {
+                f.write_str("vertical field of view must be in (0, 180) degrees")
+            }
+            SceneError::Camera(CameraError::NotFinite) => f.write_str("camera value is not finite"),
+            SceneError::MaterialNotBuilt(kind) => {
+                f.write_str(kind)?;
+                f.write_str(" materials are not in this build (enable micropt's `")?;
+                f.write_str(kind)?;
+                f.write_str("` cargo feature)")
+            }
+        }
+    }
+}
+
+/// Builds a [`Scene`] in code, checking every value as it is added.
+#[derive(Clone, Debug)]
+pub struct SceneBuilder<
+    const S: usize = MAX_SPHERES,
+    const P: usize = MAX_PLANES,
+    const M: usize = MAX_MATERIALS,
+> {
+    spheres: Vec<Sphere, S>,
+    planes: Vec<Plane, P>,
+    materials: Vec<Material, M>,
+    background: Color,
+    camera: Option<CameraSpec>,
+    resolution: Option<(u32, u32)>,
+}
+
+impl<const S: usize, const P: usize, const M: usize> Default for SceneBuilder<S, P, M> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+fn check_finite(v: Vec3) -> Result<(), SceneError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(SceneError::NotFinite)
+    }
+}
+
+fn check_unit_range(c: Color, what: &'static str) -> Result<(), SceneError> {
+    check_finite(c)?;
+    for v in [c.x, c.y, c.z] {
+        if !(0.0..=1.0).contains(&v) {
+            return Err(SceneError::OutOfRange(what));
+        }
+    }
+    Ok(())
+}
+
+fn check_non_negative(c: Color, what: &'static str) -> Result<(), SceneError> {
+    check_finite(c)?;
+    if c.x >= 0.0 && c.y >= 0.0 && c.z >= 0.0 {
+        Ok(())
+    } else {
+        Err(SceneError::OutOfRange(what))
+    }
+}
+
+impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
+    /// An empty scene: no objects, black background, no camera yet.
+    pub const fn new() -> Self {
+        Self {
+            spheres: Vec::new(),
+            planes: Vec::new(),
+            materials: Vec::new(),
+            background: Vec3::ZERO,
+            camera: None,
+            resolution: None,
+        }
+    }
+
+    /// Adds a material after checking its values (albedo and tint in [0, 1],
+    /// IOR > 0, radiance ≥ 0). A mirror or glass material in a build without
+    /// its cargo feature is [`SceneError::MaterialNotBuilt`]: the renderer
+    /// has no code for it.
+    pub fn material(&mut self, m: Material) -> Result<MaterialId, SceneError> {
+        match m {
+            Material::Diffuse(c) => check_unit_range(c, "albedo")?,
+            Material::Mirror(_) if !cfg!(feature = "mirror") => {
+                return Err(SceneError::MaterialNotBuilt("mirror"));
+            }
+            Material::Glass(_) if !cfg!(feature = "glass") => {
+                return Err(SceneError::MaterialNotBuilt("glass"));
+            }
+            Material::Mirror(c) => check_unit_range(c, "mirror reflectance")?,
+            Material::Glass(ior) => {
+                if !ior.is_finite() {
+                    return Err(SceneError::NotFinite);
+                }
+                if !(ior > 0.0) {
+                    return Err(SceneError::OutOfRange("index of refraction"));
+                }
+            }
+            Material::Light(c) => check_non_negative(c, "radiance")?,
+        }
+        let id = self.materials.len() as u16;
+        self.materials
+            .push(m)
+            .map_err(|_| SceneError::Capacity("materials"))?;
+        Ok(MaterialId(id))
+    }
+
+    fn lookup(&self, m: MaterialId) -> Result<&Material, SceneError> {
+        self.materials
+            .get(m.0 as usize)
+            .ok_or(SceneError::UnknownMaterial)
+    }
+
+    /// Adds a sphere (radius > 0).
+    pub fn sphere(
+        &mut self,
+        center: Vec3,
+        radius: f32,
+        m: MaterialId,
+    ) -> Result<ObjectId, SceneError> {
+        self.sphere_precise(center, Vec3::ZERO, radius, 0.0, m)
+    }
+
+    /// Adds a sphere of centre `center + center_lo` and radius
+    /// `radius + radius_lo`: f32 values and the remainders of exact ones
+    /// (see [`Sphere::with_residuals`]; the parser gives them for every
+    /// decimal). Only huge spheres, whose centre's rounding is a visible
+    /// distance in the scene, need them.
+    pub fn sphere_precise(
+        &mut self,
+        center: Vec3,
+        center_lo: Vec3,
+        radius: f32,
+        radius_lo: f32,
+        m: MaterialId,
+    ) -> Result<ObjectId, SceneError> {
+        check_finite(center)?;
+        if !radius.is_finite() {
+            return Err(SceneError::NotFinite);
+        }
+        if !(radius > 0.0) {
+            return Err(SceneError::OutOfRange("radius"));
+        }
+        if !(radius * radius).is_normal() {
+            return Err(SceneError::OutOfRange(
+                "radius (its square must be a normal f32)",
+            ));
+        }
+        self.lookup(m)?;
+        let id = ObjectId::sphere(self.spheres.len());
+        self.spheres
+            .push(Sphere::with_residuals(
+                center, center_lo, radius, radius_lo, m.0,
+            ))
+            .map_err(|_| SceneError::Capacity("spheres"))?;
+        Ok(id)
+    }
+
+    /// Adds an infinite two-sided plane through `point` with normal `normal`
+    /// (any non-zero length). A light material is rejected.
+    pub fn plane(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        m: MaterialId,
+    ) -> Result<ObjectId, SceneError> {
+        check_finite(point)?;
+        check_finite(normal)?;
+        let len2 = normal.length_squared();
+        if !(len2 > 0.0) || !len2.is_normal() {
+            // zero, or so small/large that normalising would fail
+            let n = normal * (1.0 / normal.abs().max_component());
+            if !(n.length_squared() > 0.0) || !n.is_finite() {
+                return Err(SceneError::OutOfRange("plane normal (zero)"));
+            }
+            return self.plane(point, n, m);
+        }
+        if let Material::Light(_) = self.lookup(m)? {
+            return Err(SceneError::LightOnPlane);
+        }
+        let id = ObjectId::plane(self.planes.len());
+        self.planes
+            .push(Plane::new(point, normal, m.0))
+            .map_err(|_| SceneError::Capacity("planes"))?;
+        Ok(id)
+    }
+
+    /// Sets the camera (exactly once).
+    pub fn camera(&mut self, spec: CameraSpec) -> Result<(), SceneError> {
+        if self.camera.is_some() {
+            return Err(SceneError::SecondCamera);
+        }
+        spec.validate().map_err(SceneError::Camera)?;
+        self.camera = Some(spec);
+        Ok(())
+    }
+
+    /// Sets the radiance of rays that hit nothing (default black).
+    pub fn background(&mut self, c: Color) -> Result<(), SceneError> {
+        check_non_negative(c, "background radiance")?;
+        self.background = c;
+        Ok(())
+    }
+
+    /// Sets the default image size (each side in 1..=65535).
+    pub fn resolution(&mut self, width: u32, height: u32) -> Result<(), SceneError> {
+        if width == 0 || height == 0 || width > 65_535 || height > 65_535 {
+            return Err(SceneError::OutOfRange("resolution"));
+        }
+        self.resolution = Some((width, height));
+        Ok(())
+    }
+
+    /// Number of spheres added so far.
+    pub fn sphere_count(&self) -> usize {
+        self.spheres.len()
+    }
+
+    /// Finishes the scene: requires a camera, and analyses what work the
+    /// scene can never need ([`crate::analysis`]).
+    pub fn build(self) -> Result<Scene<S, P, M>, SceneError> {
+        let mut scene = Scene::EMPTY;
+        self.build_into(&mut scene)?;
+        Ok(scene)
+    }
+
+    /// [`SceneBuilder::build`] into `scene` (all of it replaced; unchanged
+    /// on error), in place: the scene is never on the stack, only this
+    /// builder. With `scene` in static memory (e.g. a `static` initialised
+    /// with [`Scene::EMPTY`]) a board builds a large scene in a stack of
+    /// about the builder's size.
+    pub fn build_into(self, scene: &mut Scene<S, P, M>) -> Result<(), SceneError> {
+        let camera = self.camera.ok_or(SceneError::NoCamera)?;
+        scene.spheres = self.spheres;
+        scene.planes = self.planes;
+        scene.materials = self.materials;
+        scene.background = self.background;
+        scene.camera = camera;
+        scene.resolution = self.resolution;
+        analyse_into(
+            &mut scene.analysis,
+            &scene.spheres,
+            &scene.planes,
+            &scene.materials,
+            &scene.camera,
+        );
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam() -> CameraSpec {
+        CameraSpec {
+            eye: Vec3::new(0.0, 0.0, 5.0),
+            target: Vec3::ZERO,
+            up: Vec3::new(0.0, 1.0, 0.0),
+            vfov_deg: 45.0,
+        }
+    }
+
+    #[test]
+    fn capacity_is_enforced() {
+        let mut b: SceneBuilder<2, 1, 1> = SceneBuilder::new();
+        let m = b.material(Material::Diffuse(Vec3::splat(0.5))).unwrap();
+        assert_eq!(
+            b.material(Material::Light(Vec3::ONE)),
+            Err(SceneError::Capacity("materials"))
+        );
+        b.sphere(Vec3::ZERO, 1.0, m).unwrap();
+        b.sphere(Vec3::ONE, 1.0, m).unwrap();
+        assert_eq!(
+            b.sphere(Vec3::ONE, 1.0, m),
+            Err(SceneError::Capacity("spheres"))
+        );
+        b.plane(Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), m).unwrap();
+        assert_eq!(
+            b.plane(Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), m),
+            Err(SceneError::Capacity("planes"))
+        );
+    }
+
+    #[test]
+    fn values_are_validated() {
+        let mut b: SceneBuilder = SceneBuilder::new();
+        assert_eq!(
+            b.material(Material::Diffuse(Vec3::new(0.5, 1.5, 0.0))),
+            Err(SceneError::OutOfRange("albedo"))
+        );
+        #[cfg(feature = "glass")]
+        assert_eq!(
+            b.material(Material::Glass(0.0)),
+            Err(SceneError::OutOfRange("index of refraction"))
+        );
+        assert_eq!(
+            b.material(Material::Light(Vec3::new(1.0, -1.0, 0.0))),
+            Err(SceneError::OutOfRange("radiance"))
+        );
+        let lamp = b.material(Material::Light(Vec3::ONE)).unwrap();
+        assert_eq!(
+            b.sphere(Vec3::ZERO, 0.0, lamp),
+            Err(SceneError::OutOfRange("radius"))
+        );
+        assert_eq!(
+            b.plane(Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), lamp),
+            Err(SceneError::LightOnPlane)
+        );
+        assert_eq!(
+            b.plane(Vec3::ZERO, Vec3::ZERO, lamp),
+            Err(SceneError::OutOfRange("plane normal (zero)"))
+        );
+        assert_eq!(
+            b.sphere(Vec3::ZERO, 1.0, MaterialId(7)),
+            Err(SceneError::UnknownMaterial)
+        );
+        assert_eq!(b.clone().build().err(), Some(SceneError::NoCamera));
+        b.camera(cam()).unwrap();
+        assert_eq!(b.camera(cam()), Err(SceneError::SecondCamera));
+    }
+
+    /// A build without a material's code refuses the material instead of
+    /// rendering it as something else (`cargo test -p micropt --lib
+    /// --no-default-features --features parser` runs these).
+    #[test]
+    fn materials_left_out_of_the_build_are_refused() {
+        let mut b: SceneBuilder = SceneBuilder::new();
+        let mirror = b.material(Material::Mirror(Vec3::ONE));
+        let glass = b.material(Material::Glass(1.5));
+        if cfg!(feature = "mirror") {
+            assert!(mirror.is_ok());
+        } else {
+            assert_eq!(mirror, Err(SceneError::MaterialNotBuilt("mirror")));
+        }
+        if cfg!(feature = "glass") {
+            assert!(glass.is_ok());
+        } else {
+            let e = SceneError::MaterialNotBuilt("glass");
+            assert_eq!(glass, Err(e));
+            let mut msg: heapless::String<96> = heapless::String::new();
+            core::fmt::Write::write_fmt(&mut msg, format_args!("{e}")).unwrap();
+            assert_eq!(
+                msg,
+                "glass materials are not in this build (enable micropt's `glass` cargo feature)"
+            );
+        }
+    }
+
+    #[test]
+    fn tiny_plane_normals_are_accepted() {
+        let mut b: SceneBuilder = SceneBuilder::new();
+        let m = b.material(Material::Diffuse(Vec3::splat(0.5))).unwrap();
+        b.plane(Vec3::ZERO, Vec3::new(0.0, 1e-30, 0.0), m).unwrap();
+        b.camera(cam()).unwrap();
+        let s: Scene = b.build().unwrap();
+        assert_eq!(s.planes()[0].normal, Vec3::new(0.0, 1.0, 0.0));
+    }
+}

@@ -1,0 +1,156 @@
+//! The fixed-capacity scene, one module per part: [`builder`] checks every
+//! value as a scene is built, this module holds the validated storage, the
+//! load-time analysis lives in [`crate::analysis`], and [`query`] is how a
+//! ray finds its hit (closest hit and occlusion, over the analysis' lists).
+
+pub mod builder;
+pub mod query;
+
+pub use builder::{MaterialId, SceneBuilder, SceneError};
+pub use query::SceneView;
+
+use crate::analysis::{Analysis, Slabs};
+use crate::camera::CameraSpec;
+use crate::geometry::{Color, ObjectId, Plane, Sphere, Vec3};
+use crate::material::Material;
+use heapless::Vec;
+
+/// Default capacity: spheres.
+pub const MAX_SPHERES: usize = 128;
+/// Default capacity: planes.
+pub const MAX_PLANES: usize = 16;
+/// Default capacity: materials.
+pub const MAX_MATERIALS: usize = 32;
+
+/// A validated scene with fixed capacities (default 128 spheres, 16 planes,
+/// 32 materials; choose others with the const parameters).
+///
+/// ```
+/// use micropt::{Scene, SceneBuilder, Material, Vec3, CameraSpec};
+/// let mut b: SceneBuilder = SceneBuilder::new();
+/// let grey = b.material(Material::Diffuse(Vec3::splat(0.5)))?;
+/// b.sphere(Vec3::ZERO, 1.0, grey)?;
+/// b.camera(CameraSpec {
+///     eye: Vec3::new(0.0, 0.0, 4.0),
+///     target: Vec3::ZERO,
+///     up: Vec3::new(0.0, 1.0, 0.0),
+///     vfov_deg: 40.0,
+/// })?;
+/// b.background(Vec3::ONE)?;
+/// let scene: Scene = b.build()?;
+/// assert_eq!(scene.spheres().len(), 1);
+/// # Ok::<(), micropt::SceneError>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct Scene<
+    const S: usize = MAX_SPHERES,
+    const P: usize = MAX_PLANES,
+    const M: usize = MAX_MATERIALS,
+> {
+    pub(crate) spheres: Vec<Sphere, S>,
+    pub(crate) planes: Vec<Plane, P>,
+    pub(crate) materials: Vec<Material, M>,
+    pub(crate) analysis: Analysis<S, P>,
+    pub(crate) background: Color,
+    pub(crate) camera: CameraSpec,
+    pub(crate) resolution: Option<(u32, u32)>,
+}
+
+impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
+    /// A scene without objects and without a camera, all zero bits: the
+    /// slot that [`SceneBuilder::build_into`] and
+    /// [`parse_into`](crate::parse::parse_into) fill in place (a `static`
+    /// initialised with it goes to `.bss`). It cannot be rendered:
+    /// [`Renderer::new`](crate::Renderer::new) refuses its camera.
+    pub const EMPTY: Self = Self {
+        spheres: Vec::new(),
+        planes: Vec::new(),
+        materials: Vec::new(),
+        analysis: Analysis::EMPTY,
+        background: Color::ZERO,
+        camera: CameraSpec {
+            eye: Vec3::ZERO,
+            target: Vec3::ZERO,
+            up: Vec3::ZERO,
+            vfov_deg: 0.0,
+        },
+        resolution: None,
+    };
+
+    /// The spheres.
+    pub fn spheres(&self) -> &[Sphere] {
+        &self.spheres
+    }
+
+    /// The planes.
+    pub fn planes(&self) -> &[Plane] {
+        &self.planes
+    }
+
+    /// The materials.
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    /// Indices (into [`Scene::spheres`]) of the emitting spheres that a
+    /// path can reach (see [`crate::analysis`]).
+    pub fn lights(&self) -> &[u16] {
+        &self.analysis.lights
+    }
+
+    /// What the load-time analysis found.
+    pub fn analysis(&self) -> &Analysis<S, P> {
+        &self.analysis
+    }
+
+    /// Radiance of rays that hit nothing.
+    pub fn background(&self) -> Color {
+        self.background
+    }
+
+    /// The camera.
+    pub fn camera(&self) -> &CameraSpec {
+        &self.camera
+    }
+
+    /// The default image size, if the scene sets one.
+    pub fn resolution(&self) -> Option<(u32, u32)> {
+        self.resolution
+    }
+
+    /// A borrowed view of the scene's arrays, independent of the capacities:
+    /// what the integrator works on. `view_cos` is the cosine of the
+    /// half-angle of a cone around the view axis that contains every camera
+    /// ray (−1: no culling); spheres outside it are left out of primary-ray
+    /// tests.
+    pub fn view(&self, view_cos: f32) -> SceneView<'_> {
+        let a = &self.analysis;
+        let visible = a.view_keys.partition_point(|&k| k >= view_cos);
+        SceneView {
+            spheres: &self.spheres,
+            planes: &self.planes,
+            materials: &self.materials,
+            lights: &a.lights,
+            emitters: &a.emitters,
+            shadow_spheres: &a.shadow_spheres,
+            shadow_planes: &a.shadow_planes,
+            primary_spheres: a.view_order.get(..visible).unwrap_or(&a.view_order),
+            // no wall at all: no slab test (three divisions a ray)
+            slabs: (a.slabs != Slabs::EMPTY).then_some(a.slabs),
+            other_planes: &a.other_planes,
+            tested: &a.listed_view,
+            tested_primary: a.listed_view.get(..visible).unwrap_or(&a.listed_view),
+            tested_shadow: &a.listed_shadow,
+            light_clear: a.light_clear,
+            horizon_planes: a.horizon_planes,
+            horizon_spheres: a.horizon_spheres,
+            shadow_lights: a.listed_shadow.iter().any(|l| {
+                a.emitters
+                    .iter()
+                    .any(|&e| l.id == ObjectId::sphere(e as usize))
+            }),
+            background: self.background,
+            closed: a.closed,
+        }
+    }
+}
