@@ -202,7 +202,7 @@ impl Sphere {
     /// A sphere much larger than the hit point's coordinates (smallpt's
     /// walls: r = 1e5 around a room 100 units wide) would get a bound of
     /// γ(5)·r that way, far above the scene's own rounding; its hit point
-    /// is [refined](Sphere::hit_huge) instead.
+    /// is refined instead (`hit_huge`, private).
     #[inline]
     pub fn hit(&self, ray: &Ray, t: f32, id: ObjectId) -> Hit {
         let p0 = ray.origin + ray.dir * t;

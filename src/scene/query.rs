@@ -6,7 +6,7 @@ use crate::geometry::{Color, Hit, ObjectId, Plane, Ray, Sphere};
 use crate::material::Material;
 use crate::math;
 
-/// The arrays of a [`Scene`] and its analysis, borrowed; ray queries live
+/// The arrays of a [`Scene`](super::Scene) and its analysis, borrowed; ray queries live
 /// here.
 #[derive(Clone, Copy, Debug)]
 pub struct SceneView<'a> {
