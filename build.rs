@@ -24,7 +24,9 @@
 //!
 //!   The scene's fixed capacities (spheres, planes, materials) are the counts
 //!   of those statements in the file, so the firmware's static RAM is what
-//!   that scene needs.
+//!   that scene needs; a scene of fewer spheres than the bounding volume
+//!   hierarchy's threshold gets the `micropt_no_bvh` cfg, which leaves the
+//!   tree's code out.
 
 use std::env;
 use std::fs;
@@ -32,6 +34,7 @@ use std::path::{Path, PathBuf};
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo::rustc-check-cfg=cfg(micropt_no_bvh)");
     let firmware = env::var_os("CARGO_FEATURE_FIRMWARE").is_some();
     let board = env::var_os("CARGO_FEATURE_BOARD_ST7789").is_some();
     let bare_metal = env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none");
@@ -94,6 +97,12 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
             _ => {}
         }
     }
+    // a scene below the tree's threshold (analysis::TREE_MIN_SPHERES) never
+    // gets a bounding volume hierarchy: leave its code out of the firmware
+    // (about 4 KB of flash)
+    if spheres < 16 {
+        println!("cargo:rustc-cfg=micropt_no_bvh");
+    }
     let (width, height) = match var("MICROPT_FW_SIZE") {
         Some(s) => parse_size(&s)?,
         None => resolution.unwrap_or((64, 64)),
@@ -135,7 +144,7 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
         Some("1") => true,
         Some(s) => return Err(format!("MICROPT_FW_UNIFORM={s:?} is not 0 or 1")),
     };
-    const SKIPS: [&str; 7] = [
+    const SKIPS: [&str; 8] = [
         "shadow_occluders",
         "view_culling",
         "specialize",
@@ -143,6 +152,7 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
         "unreachable_lights",
         "closed",
         "slabs",
+        "bvh",
     ];
     let mut skip_on = [true; SKIPS.len()];
     let skip_off = var("MICROPT_FW_SKIP_OFF").unwrap_or_default();

@@ -115,6 +115,9 @@ section() { arm-none-eabi-size -A "$ELF" | awk -v s="$1" '$1 == s { print $2; f 
 fstep "firmware on every scene, bit-identical with the host"
 for scene in scenes/*.scene; do
     [ "$scene" = scenes/cornell.scene ] && continue
+    # not yet on the board: its expected outputs are not blessed, and its
+    # QEMU run time is not measured
+    [ "$scene" = scenes/many.scene ] && continue
     run_scene "$scene"
 done
 
@@ -208,7 +211,7 @@ fi
 arm-none-eabi-objdump -d -C --no-show-raw-insn "$ELF" >"$OUT/firmware.dis"
 # the render code: the core's sampling, integrator, ray queries and budget
 # executor (whichever of them the compiler kept as functions)
-render_re='<micropt::(integrator|material|light|render|budget|scene::SceneView|geometry)[^>]*>:$'
+render_re='<micropt::(integrator|material|light|render|budget|scene::(query::SceneView|bvh::BvhView)|geometry)[^>]*>:$'
 render_fn=$(awk -v re="$render_re" '/^[0-9a-f]+ <.*>:$/ { f = ($0 ~ re); next } f' "$OUT/firmware.dis")
 [ -n "$render_fn" ] || fail "no render function of the core found in the disassembly"
 grep -q 'vsqrt.f32' <<<"$render_fn" || { echo "error: no vsqrt.f32 in the render code" >&2; ok=0; }

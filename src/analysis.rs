@@ -51,6 +51,17 @@ use crate::material::Material;
 use crate::math;
 use heapless::Vec;
 
+/// The fewest spheres for which a bounding volume hierarchy
+/// ([`crate::scene::bvh`]) pays: below, a loop over the sphere list costs
+/// fewer instructions per ray than the tree's box tests.
+pub const TREE_MIN_SPHERES: usize = 16;
+
+/// Whether a scene of `spheres` listed spheres gets a bounding volume
+/// hierarchy.
+pub fn tree_pays(spheres: usize) -> bool {
+    spheres >= TREE_MIN_SPHERES
+}
+
 /// Relative safety margin of the analysis' geometric decisions.
 const MARGIN: f32 = 1e-4;
 

@@ -70,6 +70,9 @@ pub struct Skip {
     /// Walls (opaque axis-aligned planes) are tested one per axis
     /// ([`crate::analysis::Slabs`]).
     pub slabs: bool,
+    /// Rays find their spheres through the scene's bounding volume
+    /// hierarchy, when the analysis gave it one ([`crate::scene::bvh`]).
+    pub bvh: bool,
 }
 
 impl Skip {
@@ -82,6 +85,7 @@ impl Skip {
         unreachable_lights: true,
         closed: true,
         slabs: true,
+        bvh: true,
     };
     /// No skip: the integrator does all the work a general scene needs.
     pub const NONE: Self = Self {
@@ -92,6 +96,7 @@ impl Skip {
         unreachable_lights: false,
         closed: false,
         slabs: false,
+        bvh: false,
     };
 }
 

@@ -7,6 +7,7 @@ use crate::film::Tile;
 use crate::geometry::Color;
 use crate::integrator::{self, Options, Stats};
 use crate::sampler::{PixelSampler, pixel_key};
+use crate::scene::bvh::BvhView;
 use crate::scene::{Scene, SceneView};
 
 /// Renders pixels of one scene at one image size.
@@ -31,6 +32,8 @@ pub struct Renderer<'a> {
     camera: Camera,
     seed: u64,
     options: Options,
+    /// The scene's tree, whether or not the options use it.
+    tree: Option<BvhView<'a>>,
 }
 
 impl<'a> Renderer<'a> {
@@ -44,11 +47,13 @@ impl<'a> Renderer<'a> {
         // a little wider than the frustum: culling must never drop a sphere
         // that a ray through the film's edge could graze
         let view_cos = camera.view_cos() - 1e-4;
+        let view = scene.view(view_cos);
         Ok(Self {
-            scene: scene.view(view_cos),
+            scene: view,
             camera,
             seed: 0,
             options: Options::default(),
+            tree: view.bvh,
         })
     }
 
@@ -61,6 +66,9 @@ impl<'a> Renderer<'a> {
     /// Sets the integrator options.
     pub fn options(mut self, options: Options) -> Self {
         self.options = options;
+        if !cfg!(micropt_no_bvh) {
+            self.scene.bvh = if options.skip.bvh { self.tree } else { None };
+        }
         self
     }
 

@@ -321,9 +321,9 @@ fn process_cpu_seconds() -> f64 {
 
 /// Renders `scene` once and compares it with `reference`.
 #[allow(clippy::too_many_arguments)]
-pub fn run_one(
+pub fn run_one<const S: usize, const P: usize, const M: usize>(
     scene_name: &str,
-    scene: &Scene,
+    scene: &Scene<S, P, M>,
     reference: &Image,
     ref_noise_mse: f64,
     variant: &Variant,

@@ -175,9 +175,13 @@ struct RenderArgs {
     uniform: bool,
     /// Diagnostics: do the work the scene analysis would skip, to measure
     /// what a skip saves. Comma-separated: shadow-occluders, view-culling,
-    /// specialize, horizon, unreachable-lights, closed, slabs, or all.
+    /// specialize, horizon, unreachable-lights, closed, slabs, bvh, or all.
     #[arg(long, value_name = "LIST", value_parser = parse_skips)]
     no_skip: Option<Skip>,
+    /// Diagnostics: give the scene a bounding volume hierarchy even if the
+    /// analysis finds that it does not pay (to measure where it starts to).
+    #[arg(long)]
+    force_bvh: bool,
     #[command(flatten)]
     frame: FrameArgs,
     /// Exposure multiplier applied before tone mapping (PNG, rgb565).
@@ -252,10 +256,11 @@ fn parse_skips(s: &str) -> Result<Skip, String> {
             "unreachable-lights" => k.unreachable_lights = false,
             "closed" => k.closed = false,
             "slabs" => k.slabs = false,
+            "bvh" => k.bvh = false,
             "all" => k = Skip::NONE,
             other => {
                 return Err(format!(
-                    "unknown skip '{other}' (shadow-occluders, view-culling, specialize, horizon, unreachable-lights, closed, slabs, all)"
+                    "unknown skip '{other}' (shadow-occluders, view-culling, specialize, horizon, unreachable-lights, closed, slabs, bvh, all)"
                 ));
             }
         }
@@ -314,7 +319,10 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
     let output = output_or_default(a.output, &a.scene, ".png");
     // check the extension before spending time on the render
     OutputFormat::from_path(&output)?;
-    let scene = load_scene(&a.scene)?;
+    let mut scene = load_scene(&a.scene)?;
+    if a.force_bvh {
+        scene.set_bvh(true);
+    }
     let (width, height) = a.frame.size.or(scene.resolution()).unwrap_or((64, 64));
     let budget = match (a.spp, a.budget_paths, a.budget_ms) {
         (_, Some(p), _) => Budget::Paths(p),
@@ -386,6 +394,8 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
             "shadow_rays": s.shadow_rays,
             "nonfinite": s.nonfinite,
             "leaks": s.leaks,
+            "bvh_nodes": if job.options.skip.bvh { scene.bvh().len() } else { 0 },
+            "bvh_depth": if job.options.skip.bvh { scene.bvh().depth() } else { 0 },
             "threads": out.threads,
             "rays_per_second": s.rays() as f64 / out.seconds.max(1e-9),
         });

@@ -12,12 +12,50 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
+/// The host's sphere capacity: scenes of thousands of spheres.
+pub const HOST_SPHERES: usize = 4096;
+/// The host's plane capacity.
+pub const HOST_PLANES: usize = 64;
+/// The host's material capacity.
+pub const HOST_MATERIALS: usize = 1024;
+/// The scenes the host CLI and bench load (about 0.8 MB: kept on the heap).
+pub type HostScene = Scene<HOST_SPHERES, HOST_PLANES, HOST_MATERIALS>;
+
+/// A parse error's message, with the host's capacity named when a scene does
+/// not fit (the core's message says only that the build's capacity is
+/// exceeded).
+pub fn host_error(e: &micropt::parse::ParseError) -> String {
+    use micropt::SceneError::Capacity;
+    use micropt::parse::ParseErrorKind::Scene;
+    match e.kind {
+        Scene(Capacity(what)) => {
+            let cap = match what {
+                "spheres" => HOST_SPHERES,
+                "planes" => HOST_PLANES,
+                _ => HOST_MATERIALS,
+            };
+            format!("line {}: too many {what} (capacity {cap})", e.line)
+        }
+        _ => e.to_string(),
+    }
+}
+
+/// Parses a scene text at the host's capacity (on the heap).
+pub fn parse_host(text: &str) -> Result<Box<HostScene>, micropt::parse::ParseError> {
+    let mut scene = Box::new(HostScene::EMPTY);
+    micropt::parse::parse_into(text, &mut scene)?;
+    Ok(scene)
+}
+
 /// Reads and parses a scene file; the error message names the file and, for
 /// malformed scenes, the line.
-pub fn load_scene(path: &Path) -> Result<Scene, String> {
+pub fn load_scene(path: &Path) -> Result<Box<HostScene>, String> {
     let bytes =
         std::fs::read(path).map_err(|e| format!("cannot read scene {}: {e}", path.display()))?;
-    micropt::parse::parse_bytes(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+    let mut scene = Box::new(HostScene::EMPTY);
+    micropt::parse::parse_bytes_into(&bytes, &mut scene)
+        .map_err(|e| format!("{}: {}", path.display(), host_error(&e)))?;
+    Ok(scene)
 }
 
 /// What to render.
@@ -62,8 +100,8 @@ pub fn resolve_threads(threads: usize) -> usize {
 /// Renders `scene` as `job` says, calling `on_tile` after every finished
 /// tile. The image is bit-identical for any number of threads: every pixel
 /// depends only on (scene, size, spp, seed, options).
-pub fn render(
-    scene: &Scene,
+pub fn render<const S: usize, const P: usize, const M: usize>(
+    scene: &Scene<S, P, M>,
     job: &RenderJob,
     on_tile: &(dyn Fn() + Sync),
 ) -> Result<RenderOutput, String> {
@@ -177,8 +215,8 @@ fn parallel_tiles(n: usize, threads: usize, work: &(dyn Fn(usize) + Sync)) {
 /// functions. For sample budgets the image is bit-identical to the core's
 /// single-core [`micropt::budget::render_budget`] (which recomputes the
 /// preview instead of keeping it) for any thread count.
-pub fn render_budget(
-    scene: &Scene,
+pub fn render_budget<const S: usize, const P: usize, const M: usize>(
+    scene: &Scene<S, P, M>,
     job: &BudgetJob,
     on_tile: &(dyn Fn() + Sync),
 ) -> Result<BudgetOutput, String> {

@@ -9,16 +9,17 @@ use embedded_graphics::pixelcolor::Rgb565;
 use embedded_graphics::pixelcolor::raw::{BigEndian, RawU16};
 use micropt::budget::{BATCH, Clock, TileAccum, render_budget as core_render_budget};
 use micropt::film::{tile_at, tile_count};
-use micropt::{AdaptiveOptions, Budget, Options, Renderer, Scene, Skip, Stats};
+use micropt::{AdaptiveOptions, Budget, Options, Renderer, Skip, Stats};
 use micropt_host::metrics::compare;
 use micropt_host::reference::{Reference, scenes_dir};
-use micropt_host::render::{BudgetJob, RenderJob, load_scene, render, render_budget};
+use micropt_host::render::{BudgetJob, HostScene, RenderJob, load_scene, render, render_budget};
 
 /// The Rgb565 framebuffer of the board executor's 48×32 renders.
 type Fb48x32 = Framebuffer<Rgb565, RawU16, BigEndian, 48, 32, { buffer_size::<Rgb565>(48, 32) }>;
 
-fn scene(name: &str) -> Scene {
-    load_scene(&scenes_dir().join(format!("{name}.scene"))).unwrap()
+fn scene(name: &str) -> Box<HostScene> {
+    let path = scenes_dir().join(format!("{name}.scene"));
+    micropt_host::render::parse_host(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 fn job(w: u32, h: u32, budget: Budget, seed: u64, threads: usize, adaptive: bool) -> BudgetJob {
@@ -288,7 +289,7 @@ fn skip_with(f: impl Fn(&mut Skip)) -> Options {
     o
 }
 
-fn plain_pfm(s: &Scene, w: u32, h: u32, o: Options) -> Vec<u8> {
+fn plain_pfm(s: &HostScene, w: u32, h: u32, o: Options) -> Vec<u8> {
     let out = render(
         &s.clone(),
         &RenderJob {
@@ -351,7 +352,7 @@ fn estimator_preserving_skips_change_no_bit() {
 
 /// Renders `s` with the default options and with `o` (other seeds, 64 spp)
 /// and checks that the image means agree within 4 standard errors.
-fn agree_within_noise(s: &Scene, name: &str, what: &str, o: Options) {
+fn agree_within_noise(s: &HostScene, name: &str, what: &str, o: Options) {
     let (w, h) = (40, 30);
     let run = |options: Options, seed| {
         render(

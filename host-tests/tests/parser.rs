@@ -30,6 +30,7 @@ fn all_shared_scenes_parse() {
         [
             "cornell",
             "furnace",
+            "many",
             "smallpt",
             "sphere-over-plane",
             "spheres"
@@ -38,7 +39,7 @@ fn all_shared_scenes_parse() {
     for name in &names {
         let path = micropt_host::reference::scenes_dir().join(format!("{name}.scene"));
         let text = std::fs::read_to_string(&path).unwrap();
-        let s = parse(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let s = micropt_host::render::parse_host(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(s.resolution().is_some(), "{name}");
     }
 }

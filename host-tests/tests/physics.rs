@@ -239,7 +239,7 @@ fn mean_variances(img: &micropt_host::Image, r: &Reference) -> [(f64, f64); 3] {
 /// Seeds on which the stratified render is also compared.
 const STRATIFIED_SEEDS: u64 = 4;
 
-fn unbiased_against_reference(name: &str, n: u32, seeds: u64) {
+fn unbiased_against_reference(name: &str, n: u32, seeds: u64, mse_law: bool) {
     let r = Reference::load(name).unwrap();
     let scene = load_scene(&r.scene_path()).unwrap();
     let (w, h) = (r.image.width, r.image.height);
@@ -290,6 +290,9 @@ fn unbiased_against_reference(name: &str, n: u32, seeds: u64) {
     }
     pooled[0].check(name, "independent", seeds, &r);
     pooled[1].check(name, "stratified", seeds.min(STRATIFIED_SEEDS), &r);
+    if !mse_law {
+        return;
+    }
     let ratio = (mse_4n - ref_noise) / (mse_n - ref_noise);
     // relative standard errors of the two means, from the seeds' spread:
     // s/√k/m with the sample variance s² = (mean of squares − m²)·k/(k−1)
@@ -368,15 +371,26 @@ fn check_mean(
 
 #[test]
 fn cornell_is_unbiased() {
-    unbiased_against_reference("cornell", 16, 32);
+    unbiased_against_reference("cornell", 16, 32, true);
 }
 
 #[test]
 fn sphere_over_plane_is_unbiased() {
-    unbiased_against_reference("sphere-over-plane", 8, 96);
+    unbiased_against_reference("sphere-over-plane", 8, 96, true);
 }
 
 #[test]
 fn spheres_is_unbiased() {
-    unbiased_against_reference("spheres", 4, 64);
+    unbiased_against_reference("spheres", 4, 64, true);
+}
+
+/// Ray Tracing in One Weekend's final scene (482 spheres under a sky and a
+/// small sun): through the bounding volume hierarchy, the image mean within
+/// 3 standard errors of the reference. The sun (radiance 540, seen through
+/// glass and mirrors) makes the per-seed MSE too heavy-tailed for the 1/N
+/// law to be tested at this cost (the ratio's standard error is 0.07 over
+/// 32 seeds, 0.0125 is needed), so only the means are checked.
+#[test]
+fn many_is_unbiased() {
+    unbiased_against_reference("many", 4, 32, false);
 }

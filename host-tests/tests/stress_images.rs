@@ -14,7 +14,7 @@ use micropt::parse::{ParseErrorKind, parse, parse_with_capacity};
 use micropt::{Options, Scene, SceneError};
 use micropt_host::image::Image;
 use micropt_host::metrics::compare;
-use micropt_host::render::{RenderJob, RenderOutput, render};
+use micropt_host::render::{HostScene, RenderJob, RenderOutput, parse_host, render};
 use std::path::PathBuf;
 
 fn root() -> PathBuf {
@@ -29,7 +29,13 @@ fn reference(name: &str) -> Image {
     Image::load_pfm(&root().join("host-tests/data").join(format!("{name}.pfm"))).unwrap()
 }
 
-fn run(scene: &Scene, w: u32, h: u32, spp: u32, seed: u64) -> RenderOutput {
+fn run<const S: usize, const P: usize, const M: usize>(
+    scene: &Scene<S, P, M>,
+    w: u32,
+    h: u32,
+    spp: u32,
+    seed: u64,
+) -> RenderOutput {
     let job = RenderJob {
         width: w,
         height: h,
@@ -187,9 +193,9 @@ const SCALE_SPP: u32 = 32;
 
 /// A shipped scene's text, the scene, and its size for the scale-invariance
 /// renders (its own, at most 48×32).
-fn scale_scene(name: &str) -> (String, Scene, u32, u32) {
+fn scale_scene(name: &str) -> (String, Box<HostScene>, u32, u32) {
     let text = scene_text(name);
-    let scene = parse(&text).unwrap();
+    let scene = parse_host(&text).unwrap();
     let (w, h) = scene.resolution().unwrap();
     (text, scene, w.min(48), h.min(32))
 }
@@ -225,6 +231,7 @@ fn null_spread(scene: &str) -> f64 {
         "furnace" => 0.117,
         "smallpt" => 0.027,
         "spheres" => 0.140,
+        "many" => 0.309,
         _ => 0.164, // sphere-over-plane
     }
 }
@@ -250,7 +257,7 @@ fn radiance_is_invariant_under_scale_and_translation() {
             .map(|seed| run(&scene, w, h, spp, seed).image)
             .collect();
         for (k, (label, s, off)) in VARIANTS.into_iter().enumerate() {
-            let v = parse(&transform(&text, s, off)).unwrap();
+            let v = parse_host(&transform(&text, s, off)).unwrap();
             let img = run(&v, w, h, spp, 100 + k as u64);
             assert!(all_finite(&img.image) && img.stats.nonfinite == 0);
             let (m, m0) = mse_against(&img.image, &originals);
@@ -293,9 +300,9 @@ fn scale_invariance_spread_measurement() {
     for name in &micropt_host::reference::shipped_scenes() {
         let (text, scene, w, h) = scale_scene(name);
         let spp = SCALE_SPP;
-        let variants: Vec<Scene> = VARIANTS
+        let variants: Vec<Box<HostScene>> = VARIANTS
             .iter()
-            .map(|(_, s, off)| parse(&transform(&text, *s, *off)).unwrap())
+            .map(|(_, s, off)| parse_host(&transform(&text, *s, *off)).unwrap())
             .collect();
         let mut null = Vec::new();
         let mut var = vec![Vec::new(); 3];
@@ -407,9 +414,9 @@ fn horizon_under_a_tiny_sun_matches_the_analytic_radiance() {
 fn shipped_scenes_have_finite_pixels_and_no_nonfinite_samples() {
     let mut paths = 0;
     for name in &micropt_host::reference::shipped_scenes() {
-        let scene = parse(&scene_text(name)).unwrap();
+        let scene = parse_host(&scene_text(name)).unwrap();
         let (w, h) = scene.resolution().unwrap();
-        let out = run(&scene, w, h, 16, 9);
+        let out = run(&*scene, w, h, 16, 9);
         assert!(all_finite(&out.image), "{name}");
         assert_eq!(out.stats.nonfinite, 0, "{name}");
         paths += out.stats.paths;
@@ -765,7 +772,15 @@ fn capacity_overflow_names_the_line() {
         parse_with_capacity(&planes.lines().take(4).collect::<Vec<_>>().join("\n")).unwrap();
     assert_eq!(ok.planes().len(), 2);
 
-    // the CLI reports it with the file and the line
+    // the CLI (host capacity) reports it with the file, the line and the
+    // capacity
+    let host = micropt_host::render::HOST_SPHERES;
+    let mut text =
+        String::from("camera 0 0 10  0 0 0  0 1 0  40\nmaterial g diffuse 0.5 0.5 0.5\n");
+    for i in 0..host + 5 {
+        text.push_str(&format!("sphere {i} 0 0  0.5  g\n"));
+    }
+    let first_over = 3 + host as u32;
     let path = std::env::temp_dir().join(format!("micropt-capacity-{}.scene", std::process::id()));
     std::fs::write(&path, &text).unwrap();
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_micropt"))
@@ -777,10 +792,12 @@ fn capacity_overflow_names_the_line() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(
-        stderr.contains(&format!("line {first_over}: too many spheres")),
+        stderr.contains(&format!(
+            "line {first_over}: too many spheres (capacity {host})"
+        )),
         "{stderr}"
     );
-    figure("capacity", "129th sphere error", err_line(&stderr));
+    figure("capacity", "4097th sphere error (CLI)", err_line(&stderr));
 }
 
 fn err_line(s: &str) -> String {

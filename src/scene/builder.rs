@@ -2,7 +2,7 @@
 //! [`SceneBuilder::build`] runs the load-time analysis.
 
 use super::{MAX_MATERIALS, MAX_PLANES, MAX_SPHERES, Scene};
-use crate::analysis::analyse_into;
+use crate::analysis::{analyse_into, tree_pays};
 use crate::camera::{CameraError, CameraSpec};
 use crate::geometry::{Color, ObjectId, Plane, Sphere, Vec3};
 use crate::material::Material;
@@ -310,6 +310,11 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
             &scene.materials,
             &scene.camera,
         );
+        // (a firmware built without the tree's code keeps the empty tree of
+        // Scene::EMPTY)
+        if !cfg!(micropt_no_bvh) {
+            scene.set_bvh(tree_pays(scene.analysis.listed_view.len()));
+        }
         Ok(())
     }
 }

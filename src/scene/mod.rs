@@ -4,6 +4,7 @@
 //! ray finds its hit (closest hit and occlusion, over the analysis' lists).
 
 pub mod builder;
+pub mod bvh;
 pub mod query;
 
 pub use builder::{MaterialId, SceneBuilder, SceneError};
@@ -13,6 +14,7 @@ use crate::analysis::{Analysis, Slabs};
 use crate::camera::CameraSpec;
 use crate::geometry::{Color, ObjectId, Plane, Sphere, Vec3};
 use crate::material::Material;
+use bvh::Bvh;
 use heapless::Vec;
 
 /// Default capacity: spheres.
@@ -51,6 +53,7 @@ pub struct Scene<
     pub(crate) planes: Vec<Plane, P>,
     pub(crate) materials: Vec<Material, M>,
     pub(crate) analysis: Analysis<S, P>,
+    pub(crate) bvh: Bvh<S>,
     pub(crate) background: Color,
     pub(crate) camera: CameraSpec,
     pub(crate) resolution: Option<(u32, u32)>,
@@ -67,6 +70,7 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
         planes: Vec::new(),
         materials: Vec::new(),
         analysis: Analysis::EMPTY,
+        bvh: Bvh::EMPTY,
         background: Color::ZERO,
         camera: CameraSpec {
             eye: Vec3::ZERO,
@@ -96,6 +100,26 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
     /// path can reach (see [`crate::analysis`]).
     pub fn lights(&self) -> &[u16] {
         &self.analysis.lights
+    }
+
+    /// The bounding volume hierarchy over the spheres (empty when the
+    /// analysis found that the scene does not need one:
+    /// [`crate::analysis::tree_pays`]).
+    pub fn bvh(&self) -> &Bvh<S> {
+        &self.bvh
+    }
+
+    /// Builds the bounding volume hierarchy (`on`) or drops it, whatever
+    /// the analysis decided: to measure what the tree costs or saves, and
+    /// to test that it changes no hit.
+    pub fn set_bvh(&mut self, on: bool) {
+        let a = &self.analysis;
+        // a firmware for a scene below the threshold has no tree code
+        if on && !cfg!(micropt_no_bvh) {
+            self.bvh.build(&a.listed_view, &a.shadow_spheres);
+        } else {
+            self.bvh.clear();
+        }
     }
 
     /// What the load-time analysis found.
@@ -151,6 +175,7 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             }),
             background: self.background,
             closed: a.closed,
+            bvh: self.bvh.view(),
         }
     }
 }

@@ -1,6 +1,7 @@
 //! How a ray finds its hit: the closest-hit and occlusion queries over a
 //! borrowed [`SceneView`] of a scene and its analysis.
 
+use super::bvh::BvhView;
 use crate::analysis::{Listed, Slabs};
 use crate::geometry::{Color, Hit, ObjectId, Plane, Ray, Sphere};
 use crate::material::Material;
@@ -53,6 +54,10 @@ pub struct SceneView<'a> {
     pub background: Color,
     /// No ray can escape (the background is never seen).
     pub closed: bool,
+    /// The bounding volume hierarchy over `tested`, if the scene has one and
+    /// it is used: then every query finds its spheres through it (the same
+    /// hits as the lists give).
+    pub bvh: Option<BvhView<'a>>,
 }
 
 /// Records the hit of the slab plane along one axis (origin and direction
@@ -90,6 +95,7 @@ fn nearest<'p>(
     slabs: Option<&Slabs>,
     planes: impl Iterator<Item = (usize, &'p Plane)>,
     spheres: &[Listed],
+    tree: Option<(BvhView<'_>, &[Listed])>,
     all_planes: &[Plane],
     ray: &Ray,
     from: ObjectId,
@@ -120,7 +126,11 @@ fn nearest<'p>(
     let mut t_max = math::next_up_positive(t_best);
     // two copies of the sphere loop: rays that do not leave a sphere (from
     // the camera or a wall) compare no ids
-    let hit_sphere = if from.as_sphere().is_some() {
+    let hit_sphere = if let Some((tree, list)) = tree {
+        // the tree covers every sphere of the list that `spheres` is a
+        // prefix of, and gives the hit a loop over it would
+        tree.closest(list, ray, &mut t_max, from)
+    } else if from.as_sphere().is_some() {
         nearest_sphere::<true>(spheres, ray, &mut t_max, from)
     } else {
         nearest_sphere::<false>(spheres, ray, &mut t_max, from)
@@ -165,7 +175,14 @@ fn listed<'a, T>(ids: &'a [u16], all: &'a [T]) -> impl Iterator<Item = (usize, &
         .filter_map(move |&i| all.get(i as usize).map(|o| (i as usize, o)))
 }
 
-impl SceneView<'_> {
+impl<'a> SceneView<'a> {
+    /// The tree, if the view has one and this build has its code (a
+    /// firmware for a scene below the tree's threshold is built without).
+    #[inline(always)]
+    fn tree(&self) -> Option<BvhView<'a>> {
+        if cfg!(micropt_no_bvh) { None } else { self.bvh }
+    }
+
     /// The closest intersection of `ray` in `(0, ∞)`, for a ray that starts
     /// where a path can be (on the camera's side of every opaque plane: every
     /// ray the integrator traces); the walls are tested as [`Slabs`]. `from`
@@ -187,6 +204,7 @@ impl SceneView<'_> {
             self.slabs.as_ref(),
             listed(self.other_planes, self.planes),
             spheres,
+            self.tree().map(|b| (b, self.tested)),
             self.planes,
             ray,
             from,
@@ -232,6 +250,7 @@ impl SceneView<'_> {
                 .chain(rest)
                 .filter_map(|i| self.planes.get(i).map(|p| (i, p))),
             spheres,
+            self.tree().map(|b| (b, self.tested)),
             self.planes,
             ray,
             from,
@@ -246,6 +265,7 @@ impl SceneView<'_> {
     pub fn occluded(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
         blocked(
             self.tested_shadow,
+            self.tree().map(|b| (b, self.tested, true)),
             listed(self.shadow_planes, self.planes),
             ray,
             t_max,
@@ -275,6 +295,7 @@ impl SceneView<'_> {
     pub fn occluded_by_any(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
         blocked(
             self.tested,
+            self.tree().map(|b| (b, self.tested, false)),
             self.planes.iter().enumerate(),
             ray,
             t_max,
@@ -288,8 +309,10 @@ impl SceneView<'_> {
 /// Whether any of `spheres` and `planes` but `from` and `target` blocks
 /// `ray` before `t_max`.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn blocked<'p>(
     spheres: &[Listed],
+    tree: Option<(BvhView<'_>, &[Listed], bool)>,
     planes: impl Iterator<Item = (usize, &'p Plane)>,
     ray: &Ray,
     t_max: f32,
@@ -297,6 +320,13 @@ fn blocked<'p>(
     target: ObjectId,
     check_target: bool,
 ) -> bool {
+    if let Some((tree, list, occluders_only)) = tree {
+        // the tree over the whole list, skipping what `spheres` leaves out
+        if tree.blocked(list, ray, t_max, from, target, occluders_only) {
+            return true;
+        }
+        return planes_block(planes, ray, t_max, from);
+    }
     // copies of the sphere loop, so that the common cases (no light in the
     // list; leaving a wall) compare fewer ids
     let hit = match (from.as_sphere().is_some(), check_target) {
@@ -304,9 +334,17 @@ fn blocked<'p>(
         (true, false) => spheres_block::<true, false>(spheres, ray, t_max, from, target),
         _ => spheres_block::<true, true>(spheres, ray, t_max, from, target),
     };
-    if hit {
-        return true;
-    }
+    hit || planes_block(planes, ray, t_max, from)
+}
+
+/// Whether any of `planes` but `from` blocks `ray` before `t_max`.
+#[inline(always)]
+fn planes_block<'p>(
+    planes: impl Iterator<Item = (usize, &'p Plane)>,
+    ray: &Ray,
+    t_max: f32,
+    from: ObjectId,
+) -> bool {
     for (i, p) in planes {
         if ObjectId::plane(i) != from && p.intersect(ray, t_max).is_some() {
             return true;
