@@ -320,7 +320,7 @@ fn estimator_preserving_skips_change_no_bit() {
         let s = scene(name);
         let (w, h) = (40, 30);
         let all = plain_pfm(&s, w, h, Options::default());
-        let cases: [(&str, Options); 5] = [
+        let cases: [(&str, Options); 6] = [
             (
                 "shadow_occluders",
                 skip_with(|k| k.shadow_occluders = false),
@@ -329,6 +329,7 @@ fn estimator_preserving_skips_change_no_bit() {
             ("closed", skip_with(|k| k.closed = false)),
             ("horizon", skip_with(|k| k.horizon = false)),
             ("slabs", skip_with(|k| k.slabs = false)),
+            ("bvh", skip_with(|k| k.bvh = false)),
         ];
         for (what, o) in cases {
             if what == "horizon" && s.lights().len() > 1 {
