@@ -200,11 +200,30 @@ impl<'a> SceneView<'a> {
     /// choosing the list, so that its code is inlined once.
     #[inline(always)]
     pub fn closest_hit_among(&self, ray: &Ray, from: ObjectId, spheres: &[Listed]) -> Option<Hit> {
+        // the tree's query is a call of its own, so that the inlined list
+        // query of small scenes stays what it was (one test more a ray)
+        if let Some(tree) = self.tree() {
+            return self.closest_hit_tree(ray, from, tree);
+        }
         nearest(
             self.slabs.as_ref(),
             listed(self.other_planes, self.planes),
             spheres,
-            self.tree().map(|b| (b, self.tested)),
+            None,
+            self.planes,
+            ray,
+            from,
+        )
+    }
+
+    /// [`SceneView::closest_hit_among`] through the tree.
+    #[inline(never)]
+    fn closest_hit_tree(&self, ray: &Ray, from: ObjectId, tree: BvhView<'_>) -> Option<Hit> {
+        nearest(
+            self.slabs.as_ref(),
+            listed(self.other_planes, self.planes),
+            &[],
+            Some((tree, self.tested)),
             self.planes,
             ray,
             from,
@@ -263,15 +282,40 @@ impl<'a> SceneView<'a> {
     /// reachable light are tested.
     #[inline(always)]
     pub fn occluded(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
+        if let Some(tree) = self.tree() {
+            return self.occluded_tree(ray, t_max, from, target, tree);
+        }
         blocked(
             self.tested_shadow,
-            self.tree().map(|b| (b, self.tested, true)),
+            None,
             listed(self.shadow_planes, self.planes),
             ray,
             t_max,
             from,
             target,
             self.shadow_lights,
+        )
+    }
+
+    /// [`SceneView::occluded`] through the tree.
+    #[inline(never)]
+    fn occluded_tree(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        from: ObjectId,
+        target: ObjectId,
+        tree: BvhView<'_>,
+    ) -> bool {
+        blocked(
+            &[],
+            Some((tree, self.tested, true)),
+            listed(self.shadow_planes, self.planes),
+            ray,
+            t_max,
+            from,
+            target,
+            true,
         )
     }
 
