@@ -443,6 +443,7 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             light_clear: a.light_clear,
             horizon_planes: a.horizon_planes,
             horizon_spheres: a.horizon_spheres,
+            windows: &a.windows,
             shadow_lights: a.listed_shadow.iter().any(|l| {
                 a.emitters
                     .iter()
@@ -497,6 +498,8 @@ pub struct SceneView<'a> {
     pub horizon_planes: bool,
     /// The same for diffuse spheres.
     pub horizon_spheres: bool,
+    /// Windows of the reachable lights that an opaque wall cuts.
+    pub windows: &'a [crate::light::Window],
     /// Background radiance.
     pub background: Color,
     /// No ray can escape (the background is never seen).

@@ -175,7 +175,7 @@ struct RenderArgs {
     uniform: bool,
     /// Diagnostics: do the work the scene analysis would skip, to measure
     /// what a skip saves. Comma-separated: shadow-occluders, view-culling,
-    /// specialize, horizon, unreachable-lights, closed, slabs, or all.
+    /// specialize, horizon, unreachable-lights, closed, slabs, windows, or all.
     #[arg(long, value_name = "LIST", value_parser = parse_skips)]
     no_skip: Option<Skip>,
     #[command(flatten)]
@@ -252,10 +252,11 @@ fn parse_skips(s: &str) -> Result<Skip, String> {
             "unreachable-lights" => k.unreachable_lights = false,
             "closed" => k.closed = false,
             "slabs" => k.slabs = false,
+            "windows" => k.windows = false,
             "all" => k = Skip::NONE,
             other => {
                 return Err(format!(
-                    "unknown skip '{other}' (shadow-occluders, view-culling, specialize, horizon, unreachable-lights, closed, slabs, all)"
+                    "unknown skip '{other}' (shadow-occluders, view-culling, specialize, horizon, unreachable-lights, closed, slabs, windows, all)"
                 ));
             }
         }

@@ -145,7 +145,7 @@ impl Sphere {
     /// the sum are split into exact high and low parts
     /// ([`math::two_sum`], [`math::two_square`]).
     #[inline(never)]
-    fn origin_power(&self, o: Vec3) -> f32 {
+    pub(crate) fn origin_power(&self, o: Vec3) -> f32 {
         let (fx, ex) = math::two_sum(o.x, -self.center.x);
         let (fy, ey) = math::two_sum(o.y, -self.center.y);
         let (fz, ez) = math::two_sum(o.z, -self.center.z);
