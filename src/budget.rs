@@ -58,7 +58,8 @@
 //! So a deadline refines in rounds that each re-read the clock and are sized
 //! by [`Pace`] from the rate measured so far and the time left: the host
 //! (which keeps every tile's accumulators) in rounds over the whole image,
-//! each half of what the time left affords; the board tile by tile, each
+//! each half of what the time left affords and the first at most one sample
+//! per pixel, which measures the rate; the board tile by tile, each
 //! tile its pixels' share of the time left, the last tile in rounds up to the
 //! deadline. The stop condition is also asked every [`BATCH`] samples, so a
 //! render ends within one batch (plus a round's start-up) of its deadline.

@@ -219,6 +219,8 @@ pub fn render_budget(
 /// rounds so far measured and the time left: half of what it affords until
 /// that is less than two samples per pixel, then the rest, which the
 /// deadline (looked at every [`micropt::budget::BATCH`] samples) may cut.
+/// Each round goes over the tiles in up to 4 passes, so a cut round leaves
+/// the tiles at most a pass apart.
 pub fn render_budget_timed(
     scene: &Scene,
     job: &BudgetJob,
@@ -258,29 +260,30 @@ pub fn render_budget_timed(
     let preview_us = clock().saturating_sub(start);
 
     // pass 2: refinement, in rounds of `total` samples split over the tiles
-    // by pixel count
-    let round = |total: u64, deadline: Option<u64>, report: bool| -> u64 {
+    // by pixel count. A deadline's round goes over the tiles in `passes`
+    // (each a part of every tile's share), so that a round the deadline cuts
+    // leaves the tiles at most one pass apart, not some of them a whole
+    // round behind. A sample budget's one round is one pass: one
+    // `refine_tile` call per tile, as on the board.
+    let round = |total: u64, deadline: Option<u64>, passes: u64| -> u64 {
         let mut shares = vec![0u64; n];
         allocate_tiles(w, h, total, |i, s| shares[i] = s);
         let spent = AtomicU64::new(0);
-        parallel_tiles(n, threads, &|i| {
+        let items = n.saturating_mul(passes as usize);
+        parallel_tiles(items, threads, &|j| {
+            let (i, pass) = (j % n, (j / n) as u64);
+            // this pass's part of the share: cumulative rounding
+            let part = shares[i] * (pass + 1) / passes - shares[i] * pass / passes;
             let mut guard = accs[i].lock().unwrap_or_else(|e| e.into_inner());
-            if let (Some(tile), Some(acc), true) = (tile_at(w, h, i), guard.as_mut(), shares[i] > 0)
-            {
+            if let (Some(tile), Some(acc), true) = (tile_at(w, h, i), guard.as_mut(), part > 0) {
                 let mut local = Stats::default();
                 let mut stop = |_: u64| deadline.is_some_and(|d| clock() >= d);
-                let s = renderer.refine_tile(
-                    &tile,
-                    acc,
-                    shares[i],
-                    &job.adaptive,
-                    &mut stop,
-                    &mut local,
-                );
+                let s =
+                    renderer.refine_tile(&tile, acc, part, &job.adaptive, &mut stop, &mut local);
                 spent.fetch_add(s, Ordering::Relaxed);
                 merge(&local);
             }
-            if report {
+            if deadline.is_none() {
                 on_tile();
             }
         });
@@ -300,17 +303,15 @@ pub fn render_budget_timed(
                 if total == 0 || now >= deadline {
                     break;
                 }
-                refined += round(total, Some(deadline), false);
+                // passes of at least one sample per pixel, at most 4
+                let passes = (total / pixels).clamp(1, 4);
+                refined += round(total, Some(deadline), passes);
                 pace.measured(refined, clock().saturating_sub(begin));
             }
             (0..n).for_each(|_| on_tile());
             refined
         }
-        b => round(
-            budget_samples(&b, w, h).unwrap_or(pixels) - pixels,
-            None,
-            true,
-        ),
+        b => round(budget_samples(&b, w, h).unwrap_or(pixels) - pixels, None, 1),
     };
 
     let mut image = Image::new(w, h);

@@ -302,6 +302,38 @@ fn the_host_executor_spends_the_deadline_with_a_scripted_clock() {
     }
 }
 
+/// A round the deadline cuts (here the scripted clock slows down tenfold
+/// after 1,500 looks, so the round then under way overruns) leaves the
+/// tiles at most one pass (a quarter of a round) apart: with uniform
+/// allocation the counts stay level to within a quarter of the mean.
+#[test]
+fn a_round_the_deadline_cuts_leaves_the_tiles_level() {
+    let s = scene("cornell");
+    let (w, h) = (40, 24);
+    let looks = AtomicU64::new(0);
+    let clock = || {
+        let n = looks.fetch_add(1, Ordering::Relaxed) + 1;
+        n + n.saturating_sub(1_500) * 9
+    };
+    let out = render_budget_timed(
+        &s,
+        &job(w, h, Budget::Deadline(3_000), 1, 1, false),
+        &|| {},
+        &clock,
+    )
+    .unwrap();
+    let (lo, hi) = (
+        out.counts.iter().min().unwrap(),
+        out.counts.iter().max().unwrap(),
+    );
+    let mean = out.samples as f64 / f64::from(w * h);
+    eprintln!("a cut round: counts {lo}..{hi}, mean {mean:.1}");
+    assert!(
+        f64::from(hi - lo) <= mean / 4.0 + 1.0,
+        "counts {lo}..{hi}, mean {mean:.1}"
+    );
+}
+
 /// A deadline refines a tile in several calls: a later call continues
 /// where the earlier stopped. Uniform refinement split over calls gives the
 /// counts and sums of one call bit for bit (each pixel's samples are its
