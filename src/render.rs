@@ -146,7 +146,7 @@ impl<'a> Renderer<'a> {
         let w = tile.w.max(1);
         for (i, acc) in sums.iter_mut().take(tile.len()).enumerate() {
             let i = i as u32;
-            let (x, y) = (tile.x + i % w, tile.y + i / w);
+            let (x, y) = (tile.x.saturating_add(i % w), tile.y.saturating_add(i / w));
             let pixel = self.pixel_sampler(x, y);
             for k in first..first.saturating_add(count) {
                 *acc += self.sample_in(&pixel, x, y, k, stats);

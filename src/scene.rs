@@ -15,6 +15,24 @@ pub const MAX_PLANES: usize = 16;
 /// Default capacity: materials.
 pub const MAX_MATERIALS: usize = 32;
 
+/// Largest capacity of each kind (spheres, planes, materials) a scene type
+/// may have. An object's id is a 15-bit index with a plane flag (all ones
+/// meaning "nothing"), and lights and materials are listed by `u16` index:
+/// a larger capacity would give two objects one id. A `Scene` or
+/// `SceneBuilder` type with a larger capacity does not compile:
+///
+/// ```compile_fail,E0080
+/// let too_big: micropt::SceneBuilder<40_000, 1, 1> = micropt::SceneBuilder::new();
+/// ```
+pub const MAX_CAPACITY: usize = 0x7fff;
+
+/// Largest width or height of an image a scene's `resolution` may give
+/// (the host's renderer and its `--size` share the limit).
+pub const MAX_SIDE: u32 = 16_384;
+/// Most pixels in an image a scene's `resolution` may give (8192 × 4096;
+/// about 1.2 GB of the host's accumulators and image).
+pub const MAX_PIXELS: u32 = 1 << 25;
+
 /// A material handle returned by [`SceneBuilder::material`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MaterialId(pub(crate) u16);
@@ -27,6 +45,9 @@ pub enum SceneError {
     Capacity(&'static str),
     /// A value outside its allowed range; names the quantity.
     OutOfRange(&'static str),
+    /// A `resolution` that is zero or larger than [`MAX_SIDE`] per side or
+    /// [`MAX_PIXELS`] in all.
+    Resolution,
     /// A value that is NaN or infinite.
     NotFinite,
     /// A material handle from another scene, or out of range.
@@ -59,6 +80,7 @@ impl core::fmt::Display for SceneError {
                 f.write_str(what)?;
                 f.write_str(" out of range")
             }
+            SceneError::Resolution => f.write_str(RESOLUTION_LIMITS),
             SceneError::NotFinite => f.write_str("value is not finite"),
             SceneError::UnknownMaterial => f.write_str("unknown material"),
             SceneError::LightOnPlane => {
@@ -84,6 +106,24 @@ impl core::fmt::Display for SceneError {
             }
         }
     }
+}
+
+/// The message of [`SceneError::Resolution`] (a literal, checked against
+/// the constants by a test: formatting the numbers would link the formatter's
+/// padding code into a board's flash).
+const RESOLUTION_LIMITS: &str =
+    "resolution out of range: each side from 1 to 16384, at most 33554432 pixels in all";
+
+/// Whether capacities `S`, `P`, `M` fit the ids (see [`MAX_CAPACITY`]).
+struct Capacities<const S: usize, const P: usize, const M: usize>;
+
+impl<const S: usize, const P: usize, const M: usize> Capacities<S, P, M> {
+    /// Evaluated where a scene type is made: a compile error for a capacity
+    /// over [`MAX_CAPACITY`].
+    const CHECK: () = assert!(
+        S <= MAX_CAPACITY && P <= MAX_CAPACITY && M <= MAX_CAPACITY,
+        "a micropt scene capacity exceeds micropt::scene::MAX_CAPACITY (32767)"
+    );
 }
 
 /// A validated scene with fixed capacities (default 128 spheres, 16 planes,
@@ -171,6 +211,7 @@ fn check_non_negative(c: Color, what: &'static str) -> Result<(), SceneError> {
 impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
     /// An empty scene: no objects, black background, no camera yet.
     pub const fn new() -> Self {
+        let () = Capacities::<S, P, M>::CHECK;
         Self {
             spheres: Vec::new(),
             planes: Vec::new(),
@@ -309,10 +350,17 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         Ok(())
     }
 
-    /// Sets the default image size (each side in 1..=65535).
+    /// Sets the default image size: each side in 1..=[`MAX_SIDE`], at most
+    /// [`MAX_PIXELS`] in all (else [`SceneError::Resolution`]).
     pub fn resolution(&mut self, width: u32, height: u32) -> Result<(), SceneError> {
-        if width == 0 || height == 0 || width > 65_535 || height > 65_535 {
-            return Err(SceneError::OutOfRange("resolution"));
+        let pixels = u64::from(width) * u64::from(height);
+        if width == 0
+            || height == 0
+            || width > MAX_SIDE
+            || height > MAX_SIDE
+            || pixels > u64::from(MAX_PIXELS)
+        {
+            return Err(SceneError::Resolution);
         }
         self.resolution = Some((width, height));
         Ok(())
@@ -361,19 +409,22 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
     /// [`parse_into`](crate::parse::parse_into) fill in place (a `static`
     /// initialised with it goes to `.bss`). It cannot be rendered:
     /// [`Renderer::new`](crate::Renderer::new) refuses its camera.
-    pub const EMPTY: Self = Self {
-        spheres: Vec::new(),
-        planes: Vec::new(),
-        materials: Vec::new(),
-        analysis: Analysis::EMPTY,
-        background: Color::ZERO,
-        camera: CameraSpec {
-            eye: Vec3::ZERO,
-            target: Vec3::ZERO,
-            up: Vec3::ZERO,
-            vfov_deg: 0.0,
-        },
-        resolution: None,
+    pub const EMPTY: Self = {
+        let () = Capacities::<S, P, M>::CHECK;
+        Self {
+            spheres: Vec::new(),
+            planes: Vec::new(),
+            materials: Vec::new(),
+            analysis: Analysis::EMPTY,
+            background: Color::ZERO,
+            camera: CameraSpec {
+                eye: Vec3::ZERO,
+                target: Vec3::ZERO,
+                up: Vec3::ZERO,
+                vfov_deg: 0.0,
+            },
+            resolution: None,
+        }
     };
 
     /// The spheres.
@@ -804,6 +855,50 @@ mod tests {
             up: Vec3::new(0.0, 1.0, 0.0),
             vfov_deg: 45.0,
         }
+    }
+
+    #[test]
+    fn resolution_is_bounded_and_the_message_names_the_bounds() {
+        use core::fmt::Write;
+        let mut b: SceneBuilder<1, 1, 1> = SceneBuilder::new();
+        assert_eq!(b.resolution(MAX_SIDE, MAX_PIXELS / MAX_SIDE), Ok(()));
+        assert_eq!(b.resolution(1, MAX_SIDE), Ok(()));
+        for (w, h) in [
+            (0, 1),
+            (1, 0),
+            (MAX_SIDE + 1, 1),
+            (1, MAX_SIDE + 1),
+            (MAX_SIDE, MAX_PIXELS / MAX_SIDE + 1),
+            (60_000, 60_000),
+            (u32::MAX, u32::MAX),
+        ] {
+            assert_eq!(b.resolution(w, h), Err(SceneError::Resolution), "{w}x{h}");
+        }
+        let (mut got, mut want) = (
+            heapless::String::<128>::new(),
+            heapless::String::<128>::new(),
+        );
+        write!(got, "{}", SceneError::Resolution).unwrap();
+        write!(
+            want,
+            "each side from 1 to {MAX_SIDE}, at most {MAX_PIXELS} pixels"
+        )
+        .unwrap();
+        assert!(got.contains(want.as_str()), "{got}");
+    }
+
+    #[test]
+    fn the_largest_capacity_fits_the_ids() {
+        // the check behind `MAX_CAPACITY` (a larger one fails to compile, see
+        // its doc test) and what it protects: the last sphere and plane keep
+        // ids of their own, neither of them "nothing"
+        let () = Capacities::<MAX_CAPACITY, MAX_CAPACITY, MAX_CAPACITY>::CHECK;
+        let (s, p) = (
+            ObjectId::sphere(MAX_CAPACITY - 1),
+            ObjectId::plane(MAX_CAPACITY - 1),
+        );
+        assert!(s != p && s != ObjectId::NONE && p != ObjectId::NONE);
+        assert!(ObjectId::plane(MAX_CAPACITY) == ObjectId::NONE);
     }
 
     #[test]
