@@ -135,7 +135,7 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
         Some("1") => true,
         Some(s) => return Err(format!("MICROPT_FW_UNIFORM={s:?} is not 0 or 1")),
     };
-    const SKIPS: [&str; 7] = [
+    const SKIPS: [&str; 8] = [
         "shadow_occluders",
         "view_culling",
         "specialize",
@@ -143,6 +143,7 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
         "unreachable_lights",
         "closed",
         "slabs",
+        "windows",
     ];
     let mut skip_on = [true; SKIPS.len()];
     let skip_off = var("MICROPT_FW_SKIP_OFF").unwrap_or_default();
