@@ -188,26 +188,26 @@ pub struct PixelSampler {
 impl PixelSampler {
     /// The sampler of the pixel whose key is [`pixel_key`]`(seed, x, y)`.
     ///
-    /// The key's two halves are hashed, and every seed (three per
-    /// stratified pair, two for the generator) is a 32-bit hash of them
-    /// (a Weyl sequence through `lowbias32`, xor the other half's hash):
-    /// thirteen 32-bit hashes, where 64-bit mixing cost a
-    /// Cortex-M4 several instructions per multiply (this runs once per pixel
-    /// and budget round).
+    /// The key's two halves are hashed, and every scramble seed is a 32-bit
+    /// hash of them (a Weyl sequence through `lowbias32`, xor the other
+    /// half's hash): ten 32-bit hashes, where 64-bit mixing cost a Cortex-M4
+    /// several instructions per multiply. Pair 0 is used unshuffled, so its
+    /// shuffle seed is not computed, and the generator's two words are the
+    /// halves' hashes themselves (the second xor the first), which no
+    /// scramble seed's hash takes as input. This runs once per pixel and
+    /// budget round: in a uniform budget, once per sample.
     #[inline]
     pub fn new(pixel_key: u64) -> Self {
         let hash = [
             hash32(pixel_key as u32 ^ 0x68e3_1da4),
             hash32((pixel_key >> 32) as u32 ^ 0xb529_7a4d),
         ];
+        // pair 0's shuffle seed (`pair_seeds(hash, 0)[0]`) is not needed
+        let pair0 = [0, pixel_seed(hash, 1), pixel_seed(hash, 2)];
         Self {
             hash,
-            pairs: [
-                pair_seeds(hash, 0),
-                pair_seeds(hash, 1),
-                pair_seeds(hash, 2),
-            ],
-            rng: [pixel_seed(hash, u32::MAX), pixel_seed(hash, u32::MAX - 1)],
+            pairs: [pair0, pair_seeds(hash, 1), pair_seeds(hash, 2)],
+            rng: [hash[1], hash[0] ^ hash[1]],
         }
     }
 
