@@ -188,20 +188,20 @@ pub struct PixelSampler {
 impl PixelSampler {
     /// The sampler of the pixel whose key is [`pixel_key`]`(seed, x, y)`.
     ///
-    /// The key's two halves are hashed, and every scramble seed is a 32-bit
-    /// hash of them (a Weyl sequence through `lowbias32`, xor the other
-    /// half's hash): ten 32-bit hashes, where 64-bit mixing cost a Cortex-M4
+    /// The key is splitmix64's output, so its two halves are used as they
+    /// are (a key that is not well mixed, e.g. a counter, still gives valid
+    /// streams, but pixels whose keys share a half share part of their
+    /// generator's seed). Every scramble seed is a 32-bit hash of the halves
+    /// (a Weyl sequence on the low half through `lowbias32`, xor the high
+    /// half): eight 32-bit hashes, where 64-bit mixing cost a Cortex-M4
     /// several instructions per multiply. Pair 0 is used unshuffled, so its
     /// shuffle seed is not computed, and the generator's two words are the
-    /// halves' hashes themselves (the second xor the first), which no
-    /// scramble seed's hash takes as input. This runs once per pixel and
-    /// budget round: in a uniform budget, once per sample.
+    /// halves themselves (the second xor the first), which no scramble
+    /// seed's hash takes as input. This runs once per pixel and budget
+    /// round: in a uniform budget, once per sample.
     #[inline]
     pub fn new(pixel_key: u64) -> Self {
-        let hash = [
-            hash32(pixel_key as u32 ^ 0x68e3_1da4),
-            hash32((pixel_key >> 32) as u32 ^ 0xb529_7a4d),
-        ];
+        let hash = [pixel_key as u32, (pixel_key >> 32) as u32];
         // pair 0's shuffle seed (`pair_seeds(hash, 0)[0]`) is not needed
         let pair0 = [0, pixel_seed(hash, 1), pixel_seed(hash, 2)];
         Self {
