@@ -8,10 +8,9 @@
 //!   sample) are three independently Owen-scrambled 2-D Sobol sequences,
 //!   indexed by the sample number: every prefix of 2^k samples is stratified
 //!   in each 2-D pair (Burley 2020, "Practical Hash-based Owen Scrambling");
-//! * the remaining dimensions come from a PCG generator (O'Neill 2014,
-//!   `pcg_setseq_32_rxs_m_xs_32`: a 32-bit LCG with a per-stream increment
-//!   and a permuted output), whose state and increment are hashes of the
-//!   same triple.
+//! * the remaining dimensions come from `rand_xorshift`'s `XorShiftRng`
+//!   (Marsaglia's xorshift128), whose four state words are two 32-bit hashes
+//!   of the same triple and their values after the first multiply.
 //!
 //! What depends on the pixel only (the scramble seeds of the Sobol pairs and
 //! the key of the generators) is computed once per pixel by
@@ -33,7 +32,22 @@ pub fn mix64(mut z: u64) -> u64 {
 /// The per-pixel scramble seed of a render seed and pixel coordinates.
 #[inline(always)]
 pub fn pixel_key(seed: u64, x: u32, y: u32) -> u64 {
-    mix64(seed ^ mix64(((y as u64) << 32) | x as u64))
+    pixel_key_of(seed_key(seed), x, y)
+}
+
+/// The render seed as [`pixel_key_of`] takes it: computed once per render.
+#[inline]
+pub fn seed_key(seed: u64) -> u64 {
+    mix64(seed)
+}
+
+/// [`pixel_key`] with the seed's [`seed_key`] computed beforehand: one
+/// 64-bit mix per pixel. Two render seeds give the same key to two pixels
+/// only if their seed keys differ in the coordinates' bits alone (for
+/// random keys, a chance of 2^-32 for coordinates below 2^16).
+#[inline(always)]
+pub fn pixel_key_of(seed_key: u64, x: u32, y: u32) -> u64 {
+    mix64(seed_key ^ (((y as u64) << 32) | x as u64))
 }
 
 /// A float in [0, 1) from the top 24 bits of `v`: exactly representable,
@@ -217,7 +231,12 @@ impl PixelSampler {
         let [a, b] = self.rng;
         // two different hashes of the index; each gives two of the
         // generator's four words (its result and its value after the first
-        // multiply)
+        // multiply). xorshift128 is linear: output k is output k - 1
+        // xor-shifted, xor word k - 1 xor-shifted, so all four words must
+        // vary from sample to sample, and not linearly in each other, or
+        // consecutive draws would be tied. One word is made odd: the state
+        // is never zero (which xorshift cannot leave, and which `from_seed`
+        // would replace by a fixed seed).
         let (x, z) = hash32_halves(a ^ index);
         let (y, w) = hash32_halves(b.wrapping_add(index.wrapping_mul(0x9e37_79b9)));
         let mut seed = [0u8; 16];
@@ -286,7 +305,7 @@ impl SampleStream<'_> {
 
 /// The independent part of a sample's stream as a `rand_core` generator,
 /// for code that takes any [`rand_core::Rng`] (the same numbers as
-/// [`SampleStream::next_u32`]).
+/// [`SampleStream::next_u32`], i.e. as the stream's `XorShiftRng`).
 ///
 /// ```
 /// use micropt::sampler::{PixelSampler, pixel_key};
