@@ -6,7 +6,7 @@ use crate::camera::{Camera, CameraError};
 use crate::film::Tile;
 use crate::geometry::Color;
 use crate::integrator::{self, Options, Stats};
-use crate::sampler::{PixelSampler, pixel_key};
+use crate::sampler::{PixelSampler, pixel_key_of, seed_key};
 use crate::scene::{Scene, SceneView};
 
 /// Renders pixels of one scene at one image size.
@@ -29,7 +29,8 @@ use crate::scene::{Scene, SceneView};
 pub struct Renderer<'a> {
     scene: SceneView<'a>,
     camera: Camera,
-    seed: u64,
+    /// [`seed_key`] of the render seed
+    seed_key: u64,
     options: Options,
 }
 
@@ -47,14 +48,14 @@ impl<'a> Renderer<'a> {
         Ok(Self {
             scene: scene.view(view_cos),
             camera,
-            seed: 0,
+            seed_key: seed_key(0),
             options: Options::default(),
         })
     }
 
     /// Sets the render seed: images are a pure function of it.
     pub fn seed(mut self, seed: u64) -> Self {
-        self.seed = seed;
+        self.seed_key = seed_key(seed);
         self
     }
 
@@ -92,7 +93,7 @@ impl<'a> Renderer<'a> {
     /// The sampler of pixel (x, y): what all its samples share.
     #[inline]
     pub fn pixel_sampler(&self, x: u32, y: u32) -> PixelSampler {
-        PixelSampler::new(pixel_key(self.seed, x, y))
+        PixelSampler::new(pixel_key_of(self.seed_key, x, y))
     }
 
     /// Sample number `index` of pixel (x, y): one path. A non-finite result

@@ -368,7 +368,7 @@ fn check_mean(
 
 #[test]
 fn cornell_is_unbiased() {
-    unbiased_against_reference("cornell", 16, 32);
+    unbiased_against_reference("cornell", 16, 40);
 }
 
 #[test]
