@@ -455,6 +455,7 @@ pub fn analyse_into<const S: usize, const P: usize>(
     // from the light's centre, pow(c) = |c − o|² − R² computed to a few
     // ulps. Each distance is reduced by its rounding margin: a disk nearer
     // the centre is wider and still shows all of the cap.
+    #[cfg(feature = "windows")]
     for &i in lights.iter() {
         let Some(l) = spheres.get(i as usize) else {
             continue;

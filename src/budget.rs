@@ -344,6 +344,11 @@ impl Renderer<'_> {
     /// samples spent so far, before the first and after at most every
     /// [`BATCH`] samples, and ends the refinement when it returns true.
     /// Returns the samples spent.
+    ///
+    /// Never inlined: its per-pixel arrays (2 KiB for a 16×16 tile) then
+    /// live on the stack only while it runs, not in the frame of a caller
+    /// that also parses a scene.
+    #[inline(never)]
     pub fn refine_tile(
         &self,
         tile: &Tile,

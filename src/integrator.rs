@@ -422,7 +422,11 @@ pub fn radiance(
     // there than the one-light variant (docs/bench.md) and draws the same
     // numbers
     let many = lights.len() != 1 || !skip.specialize;
-    let windows: &[Window] = if skip.windows { scene.windows } else { &[] };
+    let windows: &[Window] = if cfg!(feature = "windows") && skip.windows {
+        scene.windows
+    } else {
+        &[]
+    };
     let ctx = Ctx {
         scene,
         lights,
