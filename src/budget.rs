@@ -740,9 +740,8 @@ mod tests {
         for &n in &[1usize, 2, 3, 7, 16, 100, 255, 256] {
             for &f in &[0.5f32, 0.25, 0.1, 0.9] {
                 for &total in &[10u64, 999, 256 * 64, 256 * 1000] {
-                    let bound =
-                        total as f64 * f64::from(f) / (n as f64 + (n as f64 - 1.0) * f64::from(f));
-                    let slack = 1.0 + 4.0 * total as f64 / f64::from(1u32 << 24);
+                    let bound = total as f32 * f / (n as f32 + (n as f32 - 1.0) * f);
+                    let slack = 1.0 + 4.0 * total as f32 / (1u32 << 24) as f32;
                     // weights: one heavy item, random ones, sparse random ones
                     let mut cases: [[f32; TILE_PIXELS]; 3] = [[0.0; TILE_PIXELS]; 3];
                     cases[0][n / 2] = 1.0;
@@ -756,13 +755,13 @@ mod tests {
                         assert_eq!(shares[..n].iter().sum::<u64>(), total);
                         let min = *shares[..n].iter().min().unwrap();
                         assert!(
-                            min as f64 + slack >= bound,
+                            min as f32 + slack >= bound,
                             "n {n}, f {f}, total {total}, case {k}: min share {min} < bound {bound}"
                         );
                         if k == 0 && n > 1 {
                             // attained: the others get the bound, not f of the even share
                             assert!(
-                                min as f64 <= bound + slack,
+                                min as f32 <= bound + slack,
                                 "n {n}, f {f}, total {total}: min share {min} above bound {bound}"
                             );
                         }
