@@ -75,6 +75,26 @@ fn furnace_sphere_reflects_its_albedo() {
     assert!(on > 100 && off > 300, "on {on}, off {off}");
 }
 
+/// The mean red radiance of 200,000 paths along `ray` (the streams of one
+/// pixel of render seed `seed`) and its standard error.
+fn mean_of_paths(view: &micropt::SceneView<'_>, ray: Ray, opts: &Options, seed: u64) -> (f64, f64) {
+    let n = 200_000u32;
+    let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+    let mut stats = Stats::default();
+    let pixel = PixelSampler::new(pixel_key(seed, 0, 0));
+    for i in 0..n {
+        let mut s = pixel.stream(i);
+        let v = f64::from(radiance(view, ray, &mut s, opts, &mut stats).x);
+        sum += v;
+        sum2 += v * v;
+    }
+    let mean = sum / f64::from(n);
+    (
+        mean,
+        ((sum2 / f64::from(n) - mean * mean) / f64::from(n)).sqrt(),
+    )
+}
+
 /// Inverse-square law of a sphere light: directly below a sphere of
 /// radiance L and radius r at height h, a plane's irradiance is
 /// π L (r/h)², so a Lambertian plane of albedo ρ shows ρ L (r/h)²
@@ -91,18 +111,7 @@ fn radiance_below_a_sphere_light_follows_the_inverse_square_law() {
             strategy,
             ..Options::default()
         };
-        let n = 200_000u32;
-        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
-        let mut stats = Stats::default();
-        let pixel = PixelSampler::new(pixel_key(42, 0, 0));
-        for i in 0..n {
-            let mut s = pixel.stream(i);
-            let v = f64::from(radiance(&view, ray, &mut s, &opts, &mut stats).x);
-            sum += v;
-            sum2 += v * v;
-        }
-        let mean = sum / f64::from(n);
-        let sigma = ((sum2 / f64::from(n) - mean * mean) / f64::from(n)).sqrt();
+        let (mean, sigma) = mean_of_paths(&view, ray, &opts, 42);
         assert!(
             sigma < 0.01,
             "{strategy:?}: sigma {sigma} too large to test anything"
@@ -427,18 +436,7 @@ fn a_light_behind_a_wall_shows_the_form_factor_of_its_window() {
                     ..Options::default()
                 };
                 opts.skip.windows = windows;
-                let n = 200_000u32;
-                let (mut sum, mut sum2) = (0.0f64, 0.0f64);
-                let mut stats = Stats::default();
-                let pixel = PixelSampler::new(pixel_key(7, 0, 0));
-                for i in 0..n {
-                    let mut s = pixel.stream(i);
-                    let v = f64::from(radiance(&view, ray, &mut s, &opts, &mut stats).x);
-                    sum += v;
-                    sum2 += v * v;
-                }
-                let mean = sum / f64::from(n);
-                let sigma = ((sum2 / f64::from(n) - mean * mean) / f64::from(n)).sqrt();
+                let (mean, sigma) = mean_of_paths(&view, ray, &opts, 7);
                 let label = format!("{wall}, windows {windows}, {strategy:?}");
                 assert!(sigma < 0.01, "{label}: sigma {sigma}");
                 assert!(
