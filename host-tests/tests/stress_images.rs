@@ -30,13 +30,17 @@ fn reference(name: &str) -> Image {
 }
 
 fn run(scene: &Scene, w: u32, h: u32, spp: u32, seed: u64) -> RenderOutput {
+    run_with(scene, w, h, spp, seed, Options::default())
+}
+
+fn run_with(scene: &Scene, w: u32, h: u32, spp: u32, seed: u64, options: Options) -> RenderOutput {
     let job = RenderJob {
         width: w,
         height: h,
         spp,
         seed,
         threads: 0,
-        options: Options::default(),
+        options,
     };
     render(scene, &job, &|| {}).unwrap()
 }
@@ -79,22 +83,11 @@ fn smallpt_converges_to_the_double_precision_reference() {
         stratified: false,
         ..Options::default()
     };
-    let run_with = |spp: u32, seed: u64, options: Options| {
-        let job = RenderJob {
-            width: w,
-            height: h,
-            spp,
-            seed,
-            threads: 0,
-            options,
-        };
-        render(&scene, &job, &|| {}).unwrap()
-    };
     let mut points = Vec::new();
     for spp in [4u32, 16, 64] {
         let mut m = 0.0;
         for seed in 11..15 {
-            let out = run_with(spp, seed, independent);
+            let out = run_with(&scene, w, h, spp, seed, independent);
             assert!(all_finite(&out.image) && out.stats.nonfinite == 0);
             m += 0.25 * mse(&out.image, &reference);
         }
