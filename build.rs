@@ -144,7 +144,7 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
         Some("1") => true,
         Some(s) => return Err(format!("MICROPT_FW_UNIFORM={s:?} is not 0 or 1")),
     };
-    const SKIPS: [&str; 8] = [
+    const SKIPS: [&str; 9] = [
         "shadow_occluders",
         "view_culling",
         "specialize",
@@ -153,6 +153,7 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
         "closed",
         "slabs",
         "bvh",
+        "windows",
     ];
     let mut skip_on = [true; SKIPS.len()];
     let skip_off = var("MICROPT_FW_SKIP_OFF").unwrap_or_default();

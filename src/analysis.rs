@@ -47,6 +47,7 @@
 
 use crate::camera::CameraSpec;
 use crate::geometry::{ObjectId, Plane, Sphere, Vec3};
+use crate::light::Window;
 use crate::material::Material;
 use crate::math;
 use heapless::Vec;
@@ -104,6 +105,9 @@ pub struct Analysis<const S: usize, const P: usize> {
     pub horizon_planes: bool,
     /// The same for points of diffuse spheres.
     pub horizon_spheres: bool,
+    /// Reachable lights that an opaque wall cuts, with the window through
+    /// which the camera's region sees them ([`Window`]).
+    pub windows: Vec<Window, S>,
 }
 
 impl<const S: usize, const P: usize> Analysis<S, P> {
@@ -129,6 +133,7 @@ impl<const S: usize, const P: usize> Analysis<S, P> {
         light_clear: false,
         horizon_planes: false,
         horizon_spheres: false,
+        windows: Vec::new(),
     };
 }
 
@@ -317,7 +322,9 @@ pub fn analyse_into<const S: usize, const P: usize>(
         light_clear: light_clear_out,
         horizon_planes: horizon_planes_out,
         horizon_spheres: horizon_spheres_out,
+        windows,
     } = out;
+    windows.clear();
     lights.clear();
     emitters.clear();
     shadow_spheres.clear();
@@ -451,6 +458,55 @@ pub fn analyse_into<const S: usize, const P: usize>(
         }
         _ => false,
     };
+    // windows: the opaque wall that leaves the smallest cap of each
+    // reachable light on the camera's side. A plane with the light's centre
+    // behind it; a ball around the camera with the light's centre outside
+    // it, cut along their radical plane (a ball's part inside another ball
+    // is its part on one side of that plane), at s0 = (pow(c) + r²) / (2d)
+    // from the light's centre, pow(c) = |c − o|² − R² computed to a few
+    // ulps. Each distance is reduced by its rounding margin: a disk nearer
+    // the centre is wider and still shows all of the cap.
+    #[cfg(feature = "windows")]
+    for &i in lights.iter() {
+        let Some(l) = spheres.get(i as usize) else {
+            continue;
+        };
+        let mut best: Option<(f32, Vec3)> = None;
+        let mut consider = |s0: f32, toward: Vec3| {
+            if s0 > 0.0 && s0 < l.radius && best.is_none_or(|(b, _)| s0 > b) {
+                best = Some((s0, toward));
+            }
+        };
+        for p in opaque_planes() {
+            let (d, tol) = plane_distance(p, l.center);
+            let s = side(p);
+            if s != 0.0 && -d * s > tol {
+                consider(-d * s - tol, p.normal * s);
+            }
+        }
+        for q in opaque_spheres() {
+            if core::ptr::eq(q, l) || !point_inside(eye, q) {
+                continue;
+            }
+            let to_q = q.center - l.center;
+            let d = to_q.length();
+            if !(d > 0.0) {
+                continue;
+            }
+            let pow = q.origin_power(l.center);
+            let s0 = (pow + l.radius2) / (2.0 * d);
+            // pow to a few ulps, d and the sum to one each, the light's own
+            // centre rounded at its scale: all within 16 roundings of these
+            let scale = math::abs(pow) / (2.0 * d) + l.radius + l.center.abs().max_component();
+            let tol = math::gamma(16) * scale;
+            consider(s0 - tol, to_q * (1.0 / d));
+        }
+        if let Some((s0, toward)) = best
+            && let Some(w) = Window::new(i, l.center, l.radius, toward, s0)
+        {
+            let _ = windows.push(w);
+        }
+    }
     // horizon tests: emitters (a superset of the reachable lights, so that
     // the flags hold with the unreachable-lights skip off too)
     let is_diffuse = |m: u16| matches!(materials.get(m as usize), Some(Material::Diffuse(_)));

@@ -52,6 +52,18 @@
 //! (`AdaptiveOptions { adaptive: false, .. }`, the CLI's `--uniform`) gives
 //! the unbiased estimator.
 //!
+//! **Deadlines.** A deadline cannot be turned into a number of samples up
+//! front: the preview's rate is a poor guide (on a host it is several times
+//! lower than the refinement's), and the rate changes as the render goes.
+//! So a deadline refines in rounds that each re-read the clock and are sized
+//! by [`Pace`] from the rate measured so far and the time left: the host
+//! (which keeps every tile's accumulators) in rounds over the whole image,
+//! each half of what the time left affords and the first at most one sample
+//! per pixel, which measures the rate; the board tile by tile, each
+//! tile its pixels' share of the time left, the last tile in rounds up to the
+//! deadline. The stop condition is also asked every [`BATCH`] samples, so a
+//! render ends within one batch (plus a round's start-up) of its deadline.
+//!
 //! **Memory.** Only one tile's accumulators ([`TileAccum`], 5 KiB for a
 //! 16×16 tile, plus 2 KiB of stack while allocating) are needed: no
 //! full-image float buffer on a board. A board that cannot keep the preview's
@@ -75,16 +87,23 @@ pub const TILE_PIXELS: usize = (TILE * TILE) as usize;
 /// clock): a render stops within one batch of its budget.
 pub const BATCH: u64 = TILE_PIXELS as u64;
 
+/// Most samples per pixel, on average, that a budget may ask for: a
+/// pixel's count (a `u32`, at most a tile's samples) never overflows, and a
+/// deadline far in the future still ends. Larger budgets are clamped to it.
+pub const MAX_SPP: u32 = 1 << 20;
+
 /// How much work a render may do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Budget {
     /// This many samples per pixel on average (exactly, per pixel, when
-    /// allocation is uniform).
+    /// allocation is uniform), at most [`MAX_SPP`].
     Spp(u32),
-    /// This many path samples for the whole image (at least one per pixel).
+    /// This many path samples for the whole image (at least one and at most
+    /// [`MAX_SPP`] per pixel).
     Paths(u64),
-    /// Stop refining when the caller's [`Clock`] reaches this many
-    /// microseconds after the start. The preview pass always completes.
+    /// Refine until the caller's [`Clock`] reaches this many microseconds
+    /// after the start, in rounds sized from the clock ([`Pace`]); at most
+    /// [`MAX_SPP`] per pixel. The preview pass always completes.
     Deadline(u64),
 }
 
@@ -200,7 +219,11 @@ impl TileAccum {
     ) {
         let w = tile.w.max(1);
         for i in pixels {
-            let (x, y) = (tile.x + i as u32 % w, tile.y + i as u32 / w);
+            let i32 = i as u32;
+            let (x, y) = (
+                tile.x.saturating_add(i32 % w),
+                tile.y.saturating_add(i32 / w),
+            );
             let (Some(sum), Some(l2), Some(n)) = (
                 self.sum.get_mut(i),
                 self.lum2.get_mut(i),
@@ -315,10 +338,17 @@ impl Renderer<'_> {
 
     /// Pass 2 for `tile`: spends `extra` more samples on the pixels of `acc`
     /// (which holds the tile's preview, restored or recomputed by
-    /// [`Renderer::preview_tile`]) as the module docs describe. `stop` is
-    /// asked, with the samples spent so far, before the first and after at
-    /// most every [`BATCH`] samples, and ends the refinement when it returns
-    /// true. Returns the samples spent.
+    /// [`Renderer::preview_tile`], and any samples an earlier call added) as
+    /// the module docs describe; a later call on the same accumulators
+    /// continues where the earlier one stopped. `stop` is asked, with the
+    /// samples spent so far, before the first and after at most every
+    /// [`BATCH`] samples, and ends the refinement when it returns true.
+    /// Returns the samples spent.
+    ///
+    /// Never inlined: its per-pixel arrays (2 KiB for a 16×16 tile) then
+    /// live on the stack only while it runs, not in the frame of a caller
+    /// that also parses a scene.
+    #[inline(never)]
     pub fn refine_tile(
         &self,
         tile: &Tile,
@@ -335,20 +365,29 @@ impl Renderer<'_> {
         let mut spent = 0u64;
         let mut since_check = BATCH;
         // one sample for every pixel (the first `extra` when fewer): the
-        // uniform scheme's every round, the adaptive scheme's first
+        // uniform scheme's every round, the adaptive scheme's first while a
+        // pixel has fewer than two (a later call on the same accumulators,
+        // a deadline's next round, continues without it)
         let per = if opts.adaptive {
-            1
+            u64::from((0..n).any(|i| acc.count(i) < 2))
         } else {
             extra / n as u64 + u64::from(!extra.is_multiple_of(n as u64))
         };
+        // a pass starts at the first pixel with fewer samples than pixel 0:
+        // where the last partial pass of an earlier call stopped (0 on a
+        // first call, whose counts are all equal), so that counts stay level
+        let start = (0..n).find(|&i| acc.count(i) < acc.count(0)).unwrap_or(0);
         for _ in 0..per {
             if stop(spent) {
                 return spent;
             }
             let before = spent;
-            // the first `extra - spent` pixels when fewer than all are left
+            // `take` pixels from `start` on, cyclically, when fewer than all
+            // are left
             let take = (extra - spent).min(n as u64) as usize;
-            acc.add(self, tile, 0..take, 1, stats);
+            let head = (start + take).min(n);
+            acc.add(self, tile, start..head, 1, stats);
+            acc.add(self, tile, 0..take - (head - start), 1, stats);
             spent += take as u64;
             // at most n <= BATCH samples since the look above
             since_check = spent - before;
@@ -434,13 +473,15 @@ pub fn allocate_tiles(width: u32, height: u32, total: u64, give: impl FnMut(usiz
     split(tile_count(width, height), total, 0.0, sizes, give);
 }
 
-/// The total number of image samples a sample budget asks for, or `None`
-/// for a deadline (known only as the render goes).
+/// The total number of image samples a sample budget asks for (at most
+/// [`MAX_SPP`] per pixel), or `None` for a deadline (known only as the render
+/// goes).
 pub fn budget_samples(budget: &Budget, width: u32, height: u32) -> Option<u64> {
     let pixels = u64::from(width) * u64::from(height);
+    let most = pixels.saturating_mul(u64::from(MAX_SPP));
     match *budget {
-        Budget::Spp(s) => Some(pixels * u64::from(s.max(1))),
-        Budget::Paths(p) => Some(p.max(pixels)),
+        Budget::Spp(s) => Some(pixels.saturating_mul(u64::from(s.clamp(1, MAX_SPP)))),
+        Budget::Paths(p) => Some(p.clamp(pixels, most)),
         Budget::Deadline(_) => None,
     }
 }
@@ -458,25 +499,76 @@ pub struct Summary {
     pub total_micros: u64,
 }
 
-/// The refinement budget of a deadline: what the preview's rate affords in
-/// the time left, minus `overhead` paths (a recomputed preview), with 10 %
-/// held back so that the last tiles are not cut short.
-pub fn deadline_samples(
-    deadline_us: u64,
-    preview_us: u64,
-    preview_paths: u64,
-    overhead: u64,
-) -> u64 {
-    let left = deadline_us.saturating_sub(preview_us) as f32;
-    let rate = preview_paths as f32 / math::max(preview_us as f32, 1.0);
-    let afford = math::floor(0.9 * rate * left);
-    (math::clamp(afford, 0.0, 1.0e18) as u64).saturating_sub(overhead)
+/// Sizes a deadline's refinement from the clock: the rate measured so far
+/// and the time left. The executors refine in rounds and ask before each one,
+/// so a rate that was wrong at first (the preview's: on a host several times
+/// lower than the refinement's, from thread start-up and the first touch of
+/// memory) is replaced by the refinement's own after the first round.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Pace {
+    deadline: u64,
+    paths: u64,
+    micros: u64,
+    /// Whether the rate is a round's (not the first guess's).
+    measured: bool,
+}
+
+impl Pace {
+    /// A pace for a deadline at clock reading `deadline` (microseconds), with
+    /// a first rate of `paths` traced in `micros`.
+    pub const fn new(deadline: u64, paths: u64, micros: u64) -> Self {
+        Self {
+            deadline,
+            paths,
+            micros,
+            measured: false,
+        }
+    }
+
+    /// Replaces the rate: `paths` traced in `micros` (everything the rounds
+    /// so far cost: recomputed previews, drawing, waiting for threads).
+    pub fn measured(&mut self, paths: u64, micros: u64) {
+        self.paths = paths;
+        self.micros = micros;
+        self.measured = true;
+    }
+
+    /// The paths the time from `now` to the deadline affords at the measured
+    /// rate, for `part` of the `whole` (pixels) still to refine.
+    pub fn afford(&self, now: u64, part: u64, whole: u64) -> u64 {
+        let left = self.deadline.saturating_sub(now) as f32;
+        let rate = self.paths as f32 / math::max(self.micros as f32, 1.0);
+        let share = part as f32 / math::max(whole as f32, 1.0);
+        let a = math::floor(rate * left * math::min(share, 1.0));
+        math::clamp(a, 0.0, 1.0e18) as u64
+    }
+
+    /// The next round for `pixels` pixels: half of what the time left
+    /// affords while that is at least two samples per pixel (a rate that is
+    /// too high by up to 2x still ends the round before the deadline), else
+    /// all of it, which the deadline's stop may cut. The first round, sized
+    /// by the first guess (which may be wrong either way), is at most one
+    /// sample per pixel: it measures the rate. 0: nothing is affordable.
+    pub fn round(&self, now: u64, pixels: u64) -> u64 {
+        let a = self.afford(now, 1, 1);
+        let r = if a >= pixels.saturating_mul(2) {
+            a / 2
+        } else {
+            a
+        };
+        if self.measured { r } else { r.min(pixels) }
+    }
 }
 
 /// Renders a whole image within `budget` on one core with one tile of
 /// accumulators, drawing every tile into `target` twice: its preview, then
 /// its refined pixels. This is the board's executor; the host's threaded
 /// executor gives the same image for sample budgets.
+///
+/// A deadline's refinement goes tile by tile (the board keeps one tile's
+/// accumulators): before each tile the clock is read and the tile gets its
+/// pixels' share of what the time left affords at the rate measured so far;
+/// the last tile is refined in rounds ([`Pace::round`]) until the deadline.
 pub fn render_budget<D>(
     r: &Renderer<'_>,
     budget: Budget,
@@ -504,33 +596,100 @@ where
     let pixels = u64::from(w) * u64::from(h);
     sum.samples = pixels;
     sum.preview_micros = clock.micros().saturating_sub(start);
-    let (extra, deadline) = match budget {
-        Budget::Deadline(us) => (
-            deadline_samples(us, sum.preview_micros, pixels, pixels),
-            Some(start.saturating_add(us)),
-        ),
-        _ => (
-            budget_samples(&budget, w, h)
-                .unwrap_or(pixels)
-                .saturating_sub(pixels),
-            None,
-        ),
-    };
-    let mut result = Ok(());
-    allocate_tiles(w, h, extra, |i, share| {
-        if result.is_err() || share == 0 || deadline.is_some_and(|d| clock.micros() >= d) {
-            return;
-        }
-        let Some(tile) = tile_at(w, h, i) else { return };
-        // the accumulators of the preview are gone: recompute sample 0
-        r.preview_tile(&tile, acc, &mut sum.stats);
-        let mut stop = |_: u64| deadline.is_some_and(|d| clock.micros() >= d);
-        sum.samples += r.refine_tile(&tile, acc, share, opts, &mut stop, &mut sum.stats);
-        result = draw_tile_iter(target, &tile, acc.mean_iter(), exposure);
-    });
-    result?;
+    if let Budget::Deadline(us) = budget {
+        let deadline = start.saturating_add(us);
+        let mut pace = Pace::new(deadline, pixels, sum.preview_micros);
+        refine_to_deadline(r, &mut pace, opts, acc, clock, target, exposure, &mut sum)?;
+    } else {
+        let extra = budget_samples(&budget, w, h)
+            .unwrap_or(pixels)
+            .saturating_sub(pixels);
+        let mut result = Ok(());
+        allocate_tiles(w, h, extra, |i, share| {
+            if result.is_err() || share == 0 {
+                return;
+            }
+            let Some(tile) = tile_at(w, h, i) else { return };
+            // the accumulators of the preview are gone: recompute sample 0
+            r.preview_tile(&tile, acc, &mut sum.stats);
+            sum.samples += r.refine_tile(&tile, acc, share, opts, &mut |_| false, &mut sum.stats);
+            result = draw_tile_iter(target, &tile, acc.mean_iter(), exposure);
+        });
+        result?;
+    }
     sum.total_micros = clock.micros().saturating_sub(start);
     Ok(sum)
+}
+
+/// The refinement of [`render_budget`] for a deadline (see there).
+#[allow(clippy::too_many_arguments)]
+fn refine_to_deadline<D>(
+    r: &Renderer<'_>,
+    pace: &mut Pace,
+    opts: &AdaptiveOptions,
+    acc: &mut TileAccum,
+    clock: &mut dyn Clock,
+    target: &mut D,
+    exposure: f32,
+    sum: &mut Summary,
+) -> Result<(), D::Error>
+where
+    D: embedded_graphics::draw_target::DrawTarget,
+    D::Color: FromEncoded,
+{
+    let (w, h) = (r.width(), r.height());
+    let deadline = pace.deadline;
+    let begin = clock.micros();
+    let paths_before = sum.stats.paths;
+    let mut left = u64::from(w) * u64::from(h);
+    for i in 0..tile_count(w, h) {
+        let Some(tile) = tile_at(w, h, i) else {
+            continue;
+        };
+        let part = tile.len() as u64;
+        let last = left <= part;
+        // samples this tile may still take (the preview's included)
+        let mut room = part.saturating_mul(u64::from(MAX_SPP)).saturating_sub(part);
+        let mut recomputed = false;
+        loop {
+            let now = clock.micros();
+            let want = if last {
+                pace.round(now, part)
+            } else {
+                pace.afford(now, part, left)
+            };
+            // the first round pays for recomputing the preview
+            let share = if recomputed {
+                want
+            } else {
+                want.saturating_sub(part)
+            }
+            .min(room);
+            if share == 0 || now >= deadline {
+                break;
+            }
+            if !recomputed {
+                r.preview_tile(&tile, acc, &mut sum.stats);
+                recomputed = true;
+            }
+            let mut stop = |_: u64| clock.micros() >= deadline;
+            let spent = r.refine_tile(&tile, acc, share, opts, &mut stop, &mut sum.stats);
+            sum.samples += spent;
+            room -= spent;
+            pace.measured(
+                sum.stats.paths - paths_before,
+                clock.micros().saturating_sub(begin),
+            );
+            if !last {
+                break;
+            }
+        }
+        if recomputed {
+            draw_tile_iter(target, &tile, acc.mean_iter(), exposure)?;
+        }
+        left = left.saturating_sub(part);
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -581,9 +740,8 @@ mod tests {
         for &n in &[1usize, 2, 3, 7, 16, 100, 255, 256] {
             for &f in &[0.5f32, 0.25, 0.1, 0.9] {
                 for &total in &[10u64, 999, 256 * 64, 256 * 1000] {
-                    let bound =
-                        total as f64 * f64::from(f) / (n as f64 + (n as f64 - 1.0) * f64::from(f));
-                    let slack = 1.0 + 4.0 * total as f64 / f64::from(1u32 << 24);
+                    let bound = total as f32 * f / (n as f32 + (n as f32 - 1.0) * f);
+                    let slack = 1.0 + 4.0 * total as f32 / (1u32 << 24) as f32;
                     // weights: one heavy item, random ones, sparse random ones
                     let mut cases: [[f32; TILE_PIXELS]; 3] = [[0.0; TILE_PIXELS]; 3];
                     cases[0][n / 2] = 1.0;
@@ -597,13 +755,13 @@ mod tests {
                         assert_eq!(shares[..n].iter().sum::<u64>(), total);
                         let min = *shares[..n].iter().min().unwrap();
                         assert!(
-                            min as f64 + slack >= bound,
+                            min as f32 + slack >= bound,
                             "n {n}, f {f}, total {total}, case {k}: min share {min} < bound {bound}"
                         );
                         if k == 0 && n > 1 {
                             // attained: the others get the bound, not f of the even share
                             assert!(
-                                min as f64 <= bound + slack,
+                                min as f32 <= bound + slack,
                                 "n {n}, f {f}, total {total}: min share {min} above bound {bound}"
                             );
                         }
@@ -643,10 +801,72 @@ mod tests {
     }
 
     #[test]
-    fn deadline_budget_from_the_preview_rate() {
-        // 1000 paths in 100 us, 900 us left: 9000 affordable, 90 % of it,
-        // minus a recomputed preview
-        assert_eq!(deadline_samples(1000, 100, 1000, 1000), 8100 - 1000);
-        assert_eq!(deadline_samples(50, 100, 1000, 0), 0);
+    fn pace_sizes_rounds_from_the_measured_rate_and_the_time_left() {
+        // 1000 paths in 100 us (10 per us); deadline at 1100: at 100, 1000 us
+        // left afford 10,000 paths, a quarter of the pixels 2,500
+        let mut p = Pace::new(1100, 1000, 100);
+        assert_eq!(p.afford(100, 1, 1), 10_000);
+        assert_eq!(p.afford(100, 1, 4), 2_500);
+        // the first round, from the first guess, is at most 1 per pixel
+        assert_eq!(p.round(100, 1000), 1_000);
+        assert_eq!(p.round(100, 20_000), 10_000);
+        // a measurement replaces the rate (30 per us, 500 us left)
+        p.measured(3000, 100);
+        assert_eq!(p.afford(600, 1, 1), 15_000);
+        // a round is half of it while that leaves 2 samples per pixel
+        assert_eq!(p.round(600, 1000), 7_500);
+        assert_eq!(p.round(600, 7_500), 7_500);
+        // else all of it
+        assert_eq!(p.round(600, 7_501), 15_000);
+        // at or past the deadline nothing is affordable
+        assert_eq!(p.afford(1100, 1, 1), 0);
+        assert_eq!(p.round(5000, 1), 0);
+        // no time measured yet counts as one microsecond
+        assert_eq!(Pace::new(10, 5, 0).afford(0, 1, 1), 50);
+    }
+
+    /// The round policy with a scripted clock: time advances by a scripted
+    /// cost per sample (a preview 4x dearer per sample than the refinement,
+    /// as the host measures, and a refinement whose cost per sample changes
+    /// by 2x half-way). Rounds re-read the clock, so the render uses at least
+    /// 90 % of the deadline and ends within one round of it.
+    #[test]
+    fn rounds_spend_the_deadline_with_a_scripted_clock() {
+        for (deadline, pixels) in [(500_000u64, 4096u64), (2_000_000, 4096), (20_000, 64)] {
+            // the preview: 4 us per sample
+            let preview = 4 * pixels;
+            let mut pace = Pace::new(deadline, pixels, preview);
+            let (mut now, mut spent, mut rounds) = (preview, 0u64, 0);
+            loop {
+                let round = pace.round(now, pixels);
+                if round == 0 {
+                    break;
+                }
+                rounds += 1;
+                // in batches, the stop asked before each: 1 us per sample in
+                // the first half of the time, 2 us after
+                let mut done = 0;
+                while done < round && now < deadline {
+                    let k = (round - done).min(BATCH);
+                    now += k * if now < deadline / 2 { 1 } else { 2 };
+                    done += k;
+                }
+                spent += done;
+                pace.measured(spent, now - preview);
+            }
+            assert!(
+                now * 10 >= deadline * 9 && now <= deadline + 2 * BATCH,
+                "deadline {deadline}: ended at {now} after {rounds} rounds"
+            );
+            assert!(rounds <= 40, "{rounds} rounds");
+            // and it traced what that time affords at the scripted costs (up
+            // to a batch more at the change of cost and at the deadline,
+            // which both fall inside a batch)
+            let ideal = (deadline / 2 - preview) + deadline / 2 / 2;
+            assert!(
+                spent * 10 >= ideal * 9 && spent <= ideal + 2 * BATCH,
+                "deadline {deadline}: {spent} samples of {ideal} after {rounds} rounds"
+            );
+        }
     }
 }

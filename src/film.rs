@@ -36,9 +36,10 @@ pub struct Tile {
 }
 
 impl Tile {
-    /// Number of pixels.
+    /// Number of pixels (saturating: a tile made by hand may be of any
+    /// size, the product of two `u32`s is counted without overflow).
     pub fn len(&self) -> usize {
-        (self.w * self.h) as usize
+        usize::try_from(u64::from(self.w) * u64::from(self.h)).unwrap_or(usize::MAX)
     }
 
     /// Whether the tile has no pixels.
@@ -55,9 +56,15 @@ impl Tile {
     }
 }
 
-/// Number of tiles of a `width × height` image.
+/// Number of tiles of a `width × height` image (for any `u32` sizes: counted
+/// in 64 bits, saturating at `usize::MAX` on a 32-bit target).
 pub const fn tile_count(width: u32, height: u32) -> usize {
-    (width.div_ceil(TILE) * height.div_ceil(TILE)) as usize
+    let n = width.div_ceil(TILE) as u64 * height.div_ceil(TILE) as u64;
+    if n > usize::MAX as u64 {
+        usize::MAX
+    } else {
+        n as usize
+    }
 }
 
 /// Tile number `i` (row-major) of a `width × height` image, or `None`.
@@ -66,13 +73,15 @@ pub fn tile_at(width: u32, height: u32, i: usize) -> Option<Tile> {
     if tx == 0 || i >= tile_count(width, height) {
         return None;
     }
+    // i < tiles: the tile's column and row are below width / TILE and
+    // height / TILE rounded up, so x < width and y < height
     let x = (i % tx) as u32 * TILE;
-    let y = (i / tx) as u32 * TILE;
+    let y = u32::try_from(i / tx).ok()?.checked_mul(TILE)?;
     Some(Tile {
         x,
         y,
-        w: (width - x).min(TILE),
-        h: (height - y).min(TILE),
+        w: width.saturating_sub(x).min(TILE),
+        h: height.saturating_sub(y).min(TILE),
     })
 }
 
@@ -199,7 +208,8 @@ where
     let w = tile.w.max(1);
     let colors = pixels.take(tile.len()).enumerate().map(|(i, c)| {
         let i = i as u32;
-        D::Color::from_encoded(tone_map(c, exposure), tile.x + i % w, tile.y + i / w)
+        let (x, y) = (tile.x.saturating_add(i % w), tile.y.saturating_add(i / w));
+        D::Color::from_encoded(tone_map(c, exposure), x, y)
     });
     target.fill_contiguous(&tile.rectangle(), colors)
 }
@@ -227,6 +237,39 @@ mod tests {
             }
         }
         assert!(count.iter().all(|&c| c == 1));
+    }
+
+    #[test]
+    fn tile_arithmetic_does_not_overflow() {
+        // 2^28 x 2^28 tiles: more than a u32 counts
+        let big = u32::MAX;
+        assert_eq!(tile_count(big, big) as u64, 1u64 << 56);
+        assert_eq!(tile_count(big, 1), 1 << 28);
+        let last = tile_at(big, 1, (1 << 28) - 1).unwrap();
+        assert_eq!((last.x, last.w, last.h), (big - 15, 15, 1));
+        assert_eq!(tile_at(big, 1, 1 << 28), None);
+        // a tile made by hand may be of any size
+        let t = Tile {
+            x: big,
+            y: big,
+            w: big,
+            h: big,
+        };
+        assert_eq!(
+            t.len() as u64,
+            (u64::from(big) * u64::from(big)).min(usize::MAX as u64)
+        );
+        assert!(!t.is_empty());
+        // drawn at the edge of the coordinate space: no overflow
+        let mut d: MockDisplay<Rgb888> = MockDisplay::new();
+        d.set_allow_out_of_bounds_drawing(true);
+        let edge = Tile {
+            x: big - 1,
+            y: big - 1,
+            w: 2,
+            h: 2,
+        };
+        let _ = draw_tile(&mut d, &edge, &[Color::ONE; 4], 1.0);
     }
 
     #[test]

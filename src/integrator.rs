@@ -30,7 +30,7 @@
 //! and consistent: the bias vanishes as the budget grows ([`crate::budget`]).
 
 use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3};
-use crate::light;
+use crate::light::{self, Window};
 use crate::material::{self, Material};
 use crate::math;
 use crate::sampler::SampleStream;
@@ -73,6 +73,9 @@ pub struct Skip {
     /// Rays find their spheres through the scene's bounding volume
     /// hierarchy, when the analysis gave it one ([`crate::scene::bvh`]).
     pub bvh: bool,
+    /// A light that an opaque wall cuts is sampled through its window
+    /// ([`crate::light::Window`]), not over the part the wall hides.
+    pub windows: bool,
 }
 
 impl Skip {
@@ -86,6 +89,7 @@ impl Skip {
         closed: true,
         slabs: true,
         bvh: true,
+        windows: true,
     };
     /// No skip: the integrator does all the work a general scene needs.
     pub const NONE: Self = Self {
@@ -97,6 +101,7 @@ impl Skip {
         closed: false,
         slabs: false,
         bvh: false,
+        windows: false,
     };
 }
 
@@ -197,8 +202,8 @@ struct PrevVertex {
     /// Sum of light-selection weights at that vertex.
     weight_sum: f32,
     /// With one light: its 1 − cos θ_max seen from that vertex, as
-    /// next-event estimation computed it (0: it could not be sampled there).
-    /// The point and normal are then never read again.
+    /// next-event estimation computed it (0: it could not be sampled there),
+    /// negated where next-event estimation sampled the light's window.
     light_omc: f32,
     /// Whether the horizon test was done there.
     horizon: bool,
@@ -225,23 +230,26 @@ struct Ctx<'v, 'a> {
     /// The same for points of spheres.
     horizon_spheres: bool,
     /// The only light, looked up once per path (scenes with one light).
-    one: Option<OneLight>,
+    one: Option<OneLight<'a>>,
+    /// Windows of lights cut by a wall (empty with that skip off).
+    windows: &'a [Window],
 }
 
 /// What next-event estimation needs of a scene's only light.
 #[derive(Clone, Copy)]
-struct OneLight {
+struct OneLight<'a> {
     sphere: usize,
     center: Vec3,
     radius: f32,
     radius2: f32,
     le: Color,
+    window: Option<&'a Window>,
 }
 
-impl OneLight {
+impl<'a> OneLight<'a> {
     /// The first of `lights`, if it is an emitting sphere.
     #[inline(always)]
-    fn first(scene: &SceneView<'_>, lights: &[u16]) -> Option<Self> {
+    fn first(scene: &SceneView<'_>, lights: &[u16], windows: &'a [Window]) -> Option<Self> {
         let i = *lights.first()? as usize;
         let s = scene.spheres.get(i)?;
         match scene.materials.get(s.material as usize)? {
@@ -251,6 +259,7 @@ impl OneLight {
                 radius: s.radius,
                 radius2: s.radius2,
                 le: *le,
+                window: window_of(windows, i),
             }),
             _ => None,
         }
@@ -354,13 +363,16 @@ impl Ctx<'_, '_> {
     /// Solid-angle pdf with which next-event estimation at `prev` would have
     /// produced a direction toward light sphere `i` (selection included).
     #[inline]
-    fn light_pdf<const MANY: bool>(&self, prev: &PrevVertex, i: usize) -> f32 {
+    fn light_pdf<const MANY: bool>(&self, prev: &PrevVertex, i: usize, dir: Vec3) -> f32 {
         if !MANY {
             // bit for bit the pdf from the point and normal: the same
-            // one_minus_cos_max of the same operands
+            // one_minus_cos_max of the same operands, or the same window
             return match &self.one {
                 Some(one) if one.sphere == i && prev.light_omc > 0.0 => {
                     1.0 / (math::TWO_PI * prev.light_omc)
+                }
+                Some(one) if one.sphere == i && prev.light_omc < 0.0 => {
+                    one.window.map_or(0.0, |w| w.pdf(prev.point, dir))
                 }
                 _ => 0.0,
             };
@@ -368,11 +380,17 @@ impl Ctx<'_, '_> {
         if !self.lights.contains(&(i as u16)) {
             return 0.0;
         }
-        if self
-            .samplable(prev.point, prev.normal, i, prev.horizon)
-            .is_none()
-        {
+        let Some((_, d2, r2)) = self.samplable(prev.point, prev.normal, i, prev.horizon) else {
             return 0.0;
+        };
+        if let Some(w) = window_of(self.windows, i)
+            && w.covers(prev.point)
+        {
+            if !(prev.weight_sum > 0.0) {
+                return 0.0;
+            }
+            let p_sel = self.light_lum(i) * light::one_minus_cos_max(r2, d2) / prev.weight_sum;
+            return p_sel * w.pdf(prev.point, dir);
         }
         if prev.weight_sum > 0.0 {
             // p_sel · pdf_cone = (lum · omc / W) · 1 / (2π omc)
@@ -409,6 +427,11 @@ pub fn radiance(
     // there than the one-light variant (docs/bench.md) and draws the same
     // numbers
     let many = lights.len() != 1 || !skip.specialize;
+    let windows: &[Window] = if cfg!(feature = "windows") && skip.windows {
+        scene.windows
+    } else {
+        &[]
+    };
     let ctx = Ctx {
         scene,
         lights,
@@ -417,8 +440,9 @@ pub fn radiance(
         one: if many {
             None
         } else {
-            OneLight::first(scene, lights)
+            OneLight::first(scene, lights, windows)
         },
+        windows,
     };
     // many lights, or the skip off: the general variant
     if many {
@@ -500,7 +524,7 @@ fn trace<const MANY: bool>(
                                 let pl = hit
                                     .object
                                     .as_sphere()
-                                    .map_or(0.0, |i| ctx.light_pdf::<MANY>(&prev, i));
+                                    .map_or(0.0, |i| ctx.light_pdf::<MANY>(&prev, i, ray.dir));
                                 power_heuristic(prev.bsdf_pdf, pl)
                             }
                         }
@@ -531,7 +555,27 @@ fn trace<const MANY: bool>(
                         let (choice, sum) = ctx.choose_light(hit.point, n, horizon, stream);
                         weight_sum = sum;
                         if let Some(c) = choice {
-                            l += direct(scene, &hit, n, albedo, thr, &c, u, opts, &mut shadows);
+                            let through = match window_of(ctx.windows, c.sphere) {
+                                Some(w) => direct_window(
+                                    scene,
+                                    &hit,
+                                    n,
+                                    albedo,
+                                    thr,
+                                    &c,
+                                    u,
+                                    opts,
+                                    &mut shadows,
+                                    w,
+                                ),
+                                None => None,
+                            };
+                            l += match through {
+                                Some(e) => e,
+                                None => {
+                                    direct(scene, &hit, n, albedo, thr, &c, u, opts, &mut shadows)
+                                }
+                            };
                         }
                     } else if let Some(one) = &ctx.one {
                         weight_sum = 1.0;
@@ -544,19 +588,40 @@ fn trace<const MANY: bool>(
                                 to_c,
                                 d2,
                             };
-                            l += nee::<MANY>(
-                                scene,
-                                &hit,
-                                n,
-                                thr * albedo,
-                                &c,
-                                one.radius2,
-                                one.le,
-                                u,
-                                opts,
-                                &mut shadows,
-                                &mut light_omc,
-                            );
+                            let through = match one.window {
+                                Some(w) => nee_window::<MANY>(
+                                    scene,
+                                    &hit,
+                                    n,
+                                    thr * albedo,
+                                    &c,
+                                    one.le,
+                                    u,
+                                    opts,
+                                    &mut shadows,
+                                    w,
+                                ),
+                                None => None,
+                            };
+                            if let Some(e) = through {
+                                // negative: the window's pdf applies
+                                light_omc = -1.0;
+                                l += e;
+                            } else {
+                                l += nee::<MANY>(
+                                    scene,
+                                    &hit,
+                                    n,
+                                    thr * albedo,
+                                    &c,
+                                    one.radius2,
+                                    one.le,
+                                    u,
+                                    opts,
+                                    &mut shadows,
+                                    &mut light_omc,
+                                );
+                            }
                         }
                     }
                 }
@@ -664,6 +729,32 @@ fn direct(
     )
 }
 
+/// [`direct`] through the light's window (the several-lights variant).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn direct_window(
+    scene: &SceneView<'_>,
+    hit: &Hit,
+    n: Vec3,
+    albedo: Color,
+    thr: Color,
+    c: &LightChoice,
+    u: [f32; 2],
+    opts: &Options,
+    shadows: &mut u32,
+    w: &Window,
+) -> Option<Color> {
+    let le = match scene
+        .spheres
+        .get(c.sphere)
+        .and_then(|s| scene.materials.get(s.material as usize))
+    {
+        Some(Material::Light(le)) => *le,
+        _ => return None,
+    };
+    nee_window::<true>(scene, hit, n, thr * albedo, c, le, u, opts, shadows, w)
+}
+
 /// [`direct`] with the light's squared radius and radiance given; `f` is
 /// the throughput times the albedo.
 #[allow(clippy::too_many_arguments)]
@@ -684,6 +775,7 @@ fn nee<const MANY: bool>(
     // the occluder lists hold what can block a reachable light: shadow rays
     // toward the others (sampled when that skip is off) test everything
     let lists = opts.skip.shadow_occluders && opts.skip.unreachable_lights;
+
     let surface = !(lists && scene.light_clear);
     let ls = light::sample_cone_toward(c.to_c, c.d2, r2, u[0], u[1], opts.fast_math, surface);
     *omc_out = ls.omc_max;
@@ -714,4 +806,73 @@ fn nee<const MANY: bool>(
         _ => a,
     };
     f * le * w
+}
+
+/// [`nee`] through the light's window ([`Window::sample`]) where the window
+/// shows all of the light's cap to the point ([`Window::covers`]; `None`
+/// elsewhere): the direction through a uniform point of the disk, tested
+/// to the cap's surface.
+/// `a = p_bsdf / p_light = (cos/π) · (A |n·ω| / |y − x|²) / p_sel`.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn nee_window<const MANY: bool>(
+    scene: &SceneView<'_>,
+    hit: &Hit,
+    n: Vec3,
+    f: Color,
+    c: &LightChoice,
+    le: Color,
+    u: [f32; 2],
+    opts: &Options,
+    shadows: &mut u32,
+    w: &Window,
+) -> Option<Color> {
+    if !w.covers(hit.point) {
+        return None;
+    }
+    let lists = opts.skip.shadow_occluders && opts.skip.unreachable_lights;
+    let (dir, inv_pdf) = w.sample(hit.point, u[0], u[1], opts.fast_math);
+    let cos = n.dot(dir);
+    if !(cos > 0.0 && inv_pdf > 0.0) {
+        return Some(Color::ZERO);
+    }
+    let Some(light) = scene.spheres.get(c.sphere) else {
+        return Some(Color::ZERO);
+    };
+    // the cap lies between the point and the disk: the near intersection
+    let Some(dist) = light.intersect(&Ray::new(hit.point, dir), f32::INFINITY) else {
+        return Some(Color::ZERO);
+    };
+    *shadows += 1;
+    let shadow = hit.spawn_on(n, dir);
+    let target = ObjectId::sphere(c.sphere);
+    let blocked = if lists {
+        scene.occluded_outlined(&shadow, dist, hit.object, target)
+    } else {
+        scene.occluded_by_any(&shadow, dist, hit.object, target)
+    };
+    if blocked {
+        return Some(Color::ZERO);
+    }
+    let a = cos * inv_pdf * math::INV_PI;
+    let a = if MANY { a / c.p_sel } else { a };
+    Some(f * le * mis_weight(a, opts))
+}
+
+/// The weight `a / (1 + a²)` (MIS, power heuristic) or `a` (light
+/// sampling only) of a light sample whose BSDF-to-light pdf ratio is `a`.
+#[inline(always)]
+fn mis_weight(a: f32, opts: &Options) -> f32 {
+    match opts.strategy {
+        // a/(1 + a²) = 1/(a + 1/a): the second form where a² would overflow
+        Strategy::Mis if a > 1.0e18 => 1.0 / a,
+        Strategy::Mis => a / (1.0 + a * a),
+        _ => a,
+    }
+}
+
+/// The window of light sphere `i`, if a wall cuts it.
+#[inline(always)]
+fn window_of(windows: &[Window], i: usize) -> Option<&Window> {
+    windows.iter().find(|w| w.light as usize == i)
 }

@@ -124,7 +124,7 @@ fn integer(tok: &str) -> Result<u32, ParseErrorKind> {
         return Err(ParseErrorKind::NotANumber);
     }
     tok.parse::<u32>()
-        .map_err(|_| ParseErrorKind::Scene(SceneError::OutOfRange("resolution")))
+        .map_err(|_| ParseErrorKind::Scene(SceneError::Resolution))
 }
 
 struct Parser<'a, const S: usize, const P: usize, const M: usize> {

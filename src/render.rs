@@ -6,7 +6,7 @@ use crate::camera::{Camera, CameraError};
 use crate::film::Tile;
 use crate::geometry::Color;
 use crate::integrator::{self, Options, Stats};
-use crate::sampler::{PixelSampler, pixel_key};
+use crate::sampler::{PixelSampler, pixel_key_of, seed_key};
 use crate::scene::bvh::BvhView;
 use crate::scene::{Scene, SceneView};
 
@@ -30,7 +30,8 @@ use crate::scene::{Scene, SceneView};
 pub struct Renderer<'a> {
     scene: SceneView<'a>,
     camera: Camera,
-    seed: u64,
+    /// [`seed_key`] of the render seed
+    seed_key: u64,
     options: Options,
     /// The scene's tree, whether or not the options use it.
     tree: Option<BvhView<'a>>,
@@ -51,7 +52,7 @@ impl<'a> Renderer<'a> {
         Ok(Self {
             scene: view,
             camera,
-            seed: 0,
+            seed_key: seed_key(0),
             options: Options::default(),
             tree: view.bvh,
         })
@@ -59,7 +60,7 @@ impl<'a> Renderer<'a> {
 
     /// Sets the render seed: images are a pure function of it.
     pub fn seed(mut self, seed: u64) -> Self {
-        self.seed = seed;
+        self.seed_key = seed_key(seed);
         self
     }
 
@@ -100,7 +101,7 @@ impl<'a> Renderer<'a> {
     /// The sampler of pixel (x, y): what all its samples share.
     #[inline]
     pub fn pixel_sampler(&self, x: u32, y: u32) -> PixelSampler {
-        PixelSampler::new(pixel_key(self.seed, x, y))
+        PixelSampler::new(pixel_key_of(self.seed_key, x, y))
     }
 
     /// Sample number `index` of pixel (x, y): one path. A non-finite result
@@ -154,7 +155,7 @@ impl<'a> Renderer<'a> {
         let w = tile.w.max(1);
         for (i, acc) in sums.iter_mut().take(tile.len()).enumerate() {
             let i = i as u32;
-            let (x, y) = (tile.x + i % w, tile.y + i / w);
+            let (x, y) = (tile.x.saturating_add(i % w), tile.y.saturating_add(i / w));
             let pixel = self.pixel_sampler(x, y);
             for k in first..first.saturating_add(count) {
                 *acc += self.sample_in(&pixel, x, y, k, stats);

@@ -8,16 +8,18 @@
 //!   sample) are three independently Owen-scrambled 2-D Sobol sequences,
 //!   indexed by the sample number: every prefix of 2^k samples is stratified
 //!   in each 2-D pair (Burley 2020, "Practical Hash-based Owen Scrambling");
-//! * the remaining dimensions come from a PCG generator (O'Neill 2014,
-//!   `pcg_setseq_32_rxs_m_xs_32`: a 32-bit LCG with a per-stream increment
-//!   and a permuted output), whose state and increment are hashes of the
-//!   same triple.
+//! * the remaining dimensions come from `rand_xorshift`'s `XorShiftRng`
+//!   (Marsaglia's xorshift128), whose four state words are two 32-bit hashes
+//!   of the same triple and their values after the first multiply.
 //!
 //! What depends on the pixel only (the scramble seeds of the Sobol pairs and
 //! the key of the generators) is computed once per pixel by
 //! [`PixelSampler::new`]; a sample's stream ([`PixelSampler::stream`]) then
 //! costs two 32-bit hashes. Only 32-bit integer arithmetic runs per sample:
 //! on a Cortex-M4 a 64-bit multiply is several instructions.
+
+use rand_core::{Rng, SeedableRng};
+use rand_xorshift::XorShiftRng;
 
 /// splitmix64's finaliser: a bijective 64-bit mixer.
 #[inline(always)]
@@ -30,7 +32,22 @@ pub fn mix64(mut z: u64) -> u64 {
 /// The per-pixel scramble seed of a render seed and pixel coordinates.
 #[inline(always)]
 pub fn pixel_key(seed: u64, x: u32, y: u32) -> u64 {
-    mix64(seed ^ mix64(((y as u64) << 32) | x as u64))
+    pixel_key_of(seed_key(seed), x, y)
+}
+
+/// The render seed as [`pixel_key_of`] takes it: computed once per render.
+#[inline]
+pub fn seed_key(seed: u64) -> u64 {
+    mix64(seed)
+}
+
+/// [`pixel_key`] with the seed's [`seed_key`] computed beforehand: one
+/// 64-bit mix per pixel. Two render seeds give the same key to two pixels
+/// only if their seed keys differ in the coordinates' bits alone (for
+/// random keys, a chance of 2^-32 for coordinates below 2^16).
+#[inline(always)]
+pub fn pixel_key_of(seed_key: u64, x: u32, y: u32) -> u64 {
+    mix64(seed_key ^ (((y as u64) << 32) | x as u64))
 }
 
 /// A float in [0, 1) from the top 24 bits of `v`: exactly representable,
@@ -122,6 +139,18 @@ pub fn sobol_2d_unshuffled(index: u32, seeds: &[u32; 3]) -> [f32; 2] {
     ]
 }
 
+/// [`hash32`] and its value after the first multiply and shift-xor.
+#[inline(always)]
+fn hash32_halves(mut x: u32) -> (u32, u32) {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    let mid = x;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^= x >> 16;
+    (x, mid)
+}
+
 /// A 32-bit integer hash with good avalanche (Chris Wellons' `lowbias32`):
 /// two multiplies and three shift-xors.
 #[inline(always)]
@@ -173,26 +202,26 @@ pub struct PixelSampler {
 impl PixelSampler {
     /// The sampler of the pixel whose key is [`pixel_key`]`(seed, x, y)`.
     ///
-    /// The key's two halves are hashed, and every seed (three per
-    /// stratified pair, two for the generator) is a 32-bit hash of them
-    /// (a Weyl sequence through `lowbias32`, xor the other half's hash):
-    /// thirteen 32-bit hashes, where 64-bit mixing cost a
-    /// Cortex-M4 several instructions per multiply (this runs once per pixel
-    /// and budget round).
+    /// The key is splitmix64's output, so its two halves are used as they
+    /// are (a key that is not well mixed, e.g. a counter, still gives valid
+    /// streams, but pixels whose keys share a half share part of their
+    /// generator's seed). Every scramble seed is a 32-bit hash of the halves
+    /// (a Weyl sequence on the low half through `lowbias32`, xor the high
+    /// half): eight 32-bit hashes, where 64-bit mixing cost a Cortex-M4
+    /// several instructions per multiply. Pair 0 is used unshuffled, so its
+    /// shuffle seed is not computed, and the generator's two words are the
+    /// halves themselves (the second xor the first), which no scramble
+    /// seed's hash takes as input. This runs once per pixel and budget
+    /// round: in a uniform budget, once per sample.
     #[inline]
     pub fn new(pixel_key: u64) -> Self {
-        let hash = [
-            hash32(pixel_key as u32 ^ 0x68e3_1da4),
-            hash32((pixel_key >> 32) as u32 ^ 0xb529_7a4d),
-        ];
+        let hash = [pixel_key as u32, (pixel_key >> 32) as u32];
+        // pair 0's shuffle seed (`pair_seeds(hash, 0)[0]`) is not needed
+        let pair0 = [0, pixel_seed(hash, 1), pixel_seed(hash, 2)];
         Self {
             hash,
-            pairs: [
-                pair_seeds(hash, 0),
-                pair_seeds(hash, 1),
-                pair_seeds(hash, 2),
-            ],
-            rng: [pixel_seed(hash, u32::MAX), pixel_seed(hash, u32::MAX - 1)],
+            pairs: [pair0, pair_seeds(hash, 1), pair_seeds(hash, 2)],
+            rng: [hash[1], hash[0] ^ hash[1]],
         }
     }
 
@@ -200,15 +229,24 @@ impl PixelSampler {
     #[inline(always)]
     pub fn stream(&self, index: u32) -> SampleStream<'_> {
         let [a, b] = self.rng;
-        // two different hashes of the index: the generator's starting state
-        // and its (odd) increment, i.e. which of 2^31 sequences it follows
-        let state = hash32(a ^ index);
-        let inc = hash32(b.wrapping_add(index.wrapping_mul(0x9e37_79b9))) << 1 | 1;
+        // two different hashes of the index; each gives two of the
+        // generator's four words (its result and its value after the first
+        // multiply). xorshift128 is linear: output k is output k - 1
+        // xor-shifted, xor word k - 1 xor-shifted, so all four words must
+        // vary from sample to sample, and not linearly in each other, or
+        // consecutive draws would be tied. One word is made odd: the state
+        // is never zero (which xorshift cannot leave, and which `from_seed`
+        // would replace by a fixed seed).
+        let (x, z) = hash32_halves(a ^ index);
+        let (y, w) = hash32_halves(b.wrapping_add(index.wrapping_mul(0x9e37_79b9)));
+        let mut seed = [0u8; 16];
+        for (dst, word) in seed.chunks_exact_mut(4).zip([x, y | 1, z, w]) {
+            dst.copy_from_slice(&word.to_le_bytes());
+        }
         SampleStream {
             pixel: self,
             index,
-            state,
-            inc,
+            rng: XorShiftRng::from_seed(seed),
         }
     }
 }
@@ -228,8 +266,7 @@ impl PixelSampler {
 pub struct SampleStream<'p> {
     pixel: &'p PixelSampler,
     index: u32,
-    state: u32,
-    inc: u32,
+    rng: XorShiftRng,
 }
 
 impl SampleStream<'_> {
@@ -247,13 +284,10 @@ impl SampleStream<'_> {
         }
     }
 
-    /// An independent uniformly distributed `u32` (PCG RXS M XS).
+    /// An independent uniformly distributed `u32` (xorshift128).
     #[inline(always)]
     pub fn next_u32(&mut self) -> u32 {
-        let s = self.state;
-        self.state = s.wrapping_mul(747_796_405).wrapping_add(self.inc);
-        let w = ((s >> ((s >> 28) + 4)) ^ s).wrapping_mul(277_803_737);
-        (w >> 22) ^ w
+        self.rng.next_u32()
     }
 
     /// An independent uniform float in [0, 1).
@@ -271,7 +305,7 @@ impl SampleStream<'_> {
 
 /// The independent part of a sample's stream as a `rand_core` generator,
 /// for code that takes any [`rand_core::Rng`] (the same numbers as
-/// [`SampleStream::next_u32`]).
+/// [`SampleStream::next_u32`], i.e. as the stream's `XorShiftRng`).
 ///
 /// ```
 /// use micropt::sampler::{PixelSampler, pixel_key};
@@ -457,6 +491,41 @@ mod tests {
             "{}",
             c_sample / nf
         );
+    }
+
+    /// xorshift128 is linear over GF(2): output `k` is its predecessor
+    /// xor-shifted, xor seed word `k - 1` (then output `k - 4`) xor-shifted.
+    /// A seed word that did not vary from sample to sample (or varied
+    /// linearly with another) would tie consecutive draws together; over a
+    /// pixel's samples, each of the first eight draws must fill an 8x8 grid
+    /// with its successor and with the draw four later as independent
+    /// uniform pairs do (chi-square, 63 degrees of freedom: mean 63,
+    /// standard deviation 11.2).
+    #[test]
+    fn consecutive_draws_fill_the_square() {
+        let n = 1u32 << 16;
+        for key in [pixel_key(0, 5, 6), pixel_key(9, 200, 100)] {
+            let px = PixelSampler::new(key);
+            let mut cells = [[[0u32; 64]; 8]; 2];
+            for i in 0..n {
+                let mut s = px.stream(i);
+                let mut d = [0usize; 12];
+                for v in d.iter_mut() {
+                    *v = (s.next_f32() * 8.0) as usize;
+                }
+                for k in 0..8 {
+                    cells[0][k][d[k] * 8 + d[k + 1]] += 1;
+                    cells[1][k][d[k] * 8 + d[k + 4]] += 1;
+                }
+            }
+            let e = n as f32 / 64.0;
+            for (lag, grids) in [(1, &cells[0]), (4, &cells[1])] {
+                for (k, g) in grids.iter().enumerate() {
+                    let chi2: f32 = g.iter().map(|&c| (c as f32 - e) * (c as f32 - e) / e).sum();
+                    assert!(chi2 < 120.0, "draws {k} and {}: chi2 {chi2}", k + lag);
+                }
+            }
+        }
     }
 
     #[test]

@@ -182,7 +182,7 @@ fn sampling(c: &mut Criterion) {
             })
         },
     );
-    g.bench_function("PCG next_f32", |b| {
+    g.bench_function("xorshift next_f32", |b| {
         let pixel = PixelSampler::new(pixel_key(7, 1, 2));
         let mut s = pixel.stream(3);
         b.iter(|| {

@@ -2,11 +2,12 @@
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use micropt::budget::MAX_SPP;
 use micropt::{AdaptiveOptions, Budget, Options, Skip};
 use micropt_host::bench;
 use micropt_host::image::{Image, OutputFormat};
 use micropt_host::metrics::{ZGroup, bias_z, compare};
-use micropt_host::render::{BudgetJob, load_scene, render_budget};
+use micropt_host::render::{BudgetJob, MAX_THREADS, check_size, load_scene, render_budget};
 use micropt_host::smallpt::{self, SmallptJob, SmallptOptions, SmallptScene};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -144,8 +145,9 @@ struct FrameArgs {
     /// Render seed: the image is a pure function of scene, size, spp and seed.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Worker threads [default: all cores]; the image does not depend on it.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Worker threads, at most 1024 [default: all cores]; the image does not
+    /// depend on it.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_THREADS as i64))]
     threads: Option<u32>,
 }
 
@@ -156,11 +158,12 @@ struct RenderArgs {
     /// Output file; the extension picks the format [default: SCENE-STEM.png].
     #[arg(short, long, value_name = "OUT")]
     output: Option<PathBuf>,
-    /// Samples per pixel (the average, with the default adaptive allocation)
-    /// [default: 64 when no other budget is given].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..), group = "budget")]
+    /// Samples per pixel (the average, when allocation is adaptive), at
+    /// most 1048576 [default: 64 when no other budget is given].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_SPP)), group = "budget")]
     spp: Option<u32>,
-    /// Budget: this many path samples for the whole image.
+    /// Budget: this many path samples for the whole image (at most 1048576
+    /// per pixel).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..), group = "budget")]
     budget_paths: Option<u64>,
     /// Budget: stop refining after this many milliseconds (the 1-spp
@@ -175,7 +178,7 @@ struct RenderArgs {
     uniform: bool,
     /// Diagnostics: do the work the scene analysis would skip, to measure
     /// what a skip saves. Comma-separated: shadow-occluders, view-culling,
-    /// specialize, horizon, unreachable-lights, closed, slabs, bvh, or all.
+    /// specialize, horizon, unreachable-lights, closed, slabs, windows, bvh, or all.
     #[arg(long, value_name = "LIST", value_parser = parse_skips)]
     no_skip: Option<Skip>,
     /// Diagnostics: give the scene a bounding volume hierarchy even if the
@@ -236,12 +239,7 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
         .trim()
         .parse()
         .map_err(|_| format!("height '{h}' is not a whole number"))?;
-    if w == 0 || h == 0 {
-        return Err("width and height must be at least 1".into());
-    }
-    if w > 16_384 || h > 16_384 {
-        return Err("width and height must be at most 16384".into());
-    }
+    check_size(w, h)?;
     Ok((w, h))
 }
 
@@ -256,11 +254,12 @@ fn parse_skips(s: &str) -> Result<Skip, String> {
             "unreachable-lights" => k.unreachable_lights = false,
             "closed" => k.closed = false,
             "slabs" => k.slabs = false,
+            "windows" => k.windows = false,
             "bvh" => k.bvh = false,
             "all" => k = Skip::NONE,
             other => {
                 return Err(format!(
-                    "unknown skip '{other}' (shadow-occluders, view-culling, specialize, horizon, unreachable-lights, closed, slabs, bvh, all)"
+                    "unknown skip '{other}' (shadow-occluders, view-culling, specialize, horizon, unreachable-lights, closed, slabs, windows, bvh, all)"
                 ));
             }
         }
@@ -324,6 +323,14 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
         scene.set_bvh(true);
     }
     let (width, height) = a.frame.size.or(scene.resolution()).unwrap_or((64, 64));
+    if let Some(p) = a.budget_paths {
+        let most = u64::from(width) * u64::from(height) * u64::from(MAX_SPP);
+        if p > most {
+            return Err(format!(
+                "--budget-paths {p} is more than {MAX_SPP} samples per pixel of a {width}x{height} image (at most {most})"
+            ));
+        }
+    }
     let budget = match (a.spp, a.budget_paths, a.budget_ms) {
         (_, Some(p), _) => Budget::Paths(p),
         (_, _, Some(ms)) => Budget::Deadline(ms.saturating_mul(1000)),

@@ -3,7 +3,8 @@
 
 use embedded_graphics::pixelcolor::{Rgb565, Rgb888, RgbColor};
 use micropt::Color;
-use micropt::film::{FromEncoded, rgb565_be, tone_map};
+use micropt::film::{FromEncoded, Tile, rgb565_be, tone_map};
+use micropt::scene::{MAX_PIXELS, MAX_SIDE};
 use std::io::{self, BufRead, Read, Write};
 use std::path::Path;
 
@@ -19,18 +20,43 @@ pub struct Image {
 }
 
 impl Image {
-    /// A black image.
+    /// A black image. The caller bounds the size (the renderers check it
+    /// against the scene format's limits, the PFM reader against its own);
+    /// the pixel count is computed without overflow.
     pub fn new(width: u32, height: u32) -> Self {
         Self {
             width,
             height,
-            pixels: vec![Color::ZERO; (width * height) as usize],
+            pixels: vec![Color::ZERO; width as usize * height as usize],
         }
+    }
+
+    /// The index in `pixels` of (x, y).
+    fn index(&self, x: u32, y: u32) -> usize {
+        y as usize * self.width as usize + x as usize
     }
 
     /// The pixel at (x, y).
     pub fn get(&self, x: u32, y: u32) -> Color {
-        self.pixels[(y * self.width + x) as usize]
+        self.pixels[self.index(x, y)]
+    }
+
+    /// The indices in `pixels` of `tile`'s pixels, row-major in the tile.
+    pub fn tile_indices(&self, tile: &Tile) -> impl Iterator<Item = usize> + use<> {
+        let (width, tile) = (self.width as usize, *tile);
+        let w = tile.w.max(1);
+        (0..tile.len()).map(move |k| {
+            let k = k as u32;
+            (tile.y + k / w) as usize * width + (tile.x + k % w) as usize
+        })
+    }
+
+    /// Writes one tile's pixels (row-major in the tile, `tile.len()` of
+    /// them) into the image.
+    pub fn put_tile(&mut self, tile: &Tile, px: &[Color]) {
+        for (i, c) in self.tile_indices(tile).zip(px) {
+            self.pixels[i] = *c;
+        }
     }
 
     /// Mean of all pixels.
@@ -82,12 +108,23 @@ impl Image {
         let width: u32 = tokens[1].parse().map_err(|_| bad("width"))?;
         let height: u32 = tokens[2].parse().map_err(|_| bad("height"))?;
         let scale: f32 = tokens[3].parse().map_err(|_| bad("scale"))?;
-        if width == 0 || height == 0 || width > 1 << 15 || height > 1 << 15 {
-            return Err(bad("size"));
+        if width == 0 || height == 0 {
+            return Err(bad("size (zero width or height)"));
         }
-        let mut data = vec![0u8; (width * height * 12) as usize];
-        r.read_exact(&mut data)
-            .map_err(|_| bad("truncated pixel data"))?;
+        let pixels = u64::from(width) * u64::from(height);
+        if width > MAX_SIDE || height > MAX_SIDE || pixels > u64::from(MAX_PIXELS) {
+            return Err(bad(&format!(
+                "size {width}x{height} (at most {MAX_SIDE} per side and {MAX_PIXELS} pixels)"
+            )));
+        }
+        // read as the data comes: a header that promises more than the file
+        // holds costs no more memory than the file
+        let len = pixels * 12;
+        let mut data = Vec::new();
+        r.take(len).read_to_end(&mut data)?;
+        if data.len() as u64 != len {
+            return Err(bad("truncated pixel data"));
+        }
         let mut img = Image::new(width, height);
         for (i, c) in data.chunks_exact(4).enumerate() {
             let b = [c[0], c[1], c[2], c[3]];
@@ -98,7 +135,8 @@ impl Image {
             };
             let p = i / 3;
             let (x, yb) = ((p as u32) % width, (p as u32) / width);
-            let px = &mut img.pixels[((height - 1 - yb) * width + x) as usize];
+            let idx = img.index(x, height - 1 - yb);
+            let px = &mut img.pixels[idx];
             match i % 3 {
                 0 => px.x = v,
                 1 => px.y = v,
@@ -218,6 +256,33 @@ mod tests {
         // the first stored pixel is the bottom-left one: (0, 1) = index 3
         assert_eq!(&bytes[12..16], &3.0f32.to_le_bytes());
         assert_eq!(Image::read_pfm(&bytes[..]).unwrap(), img);
+    }
+
+    /// A header may promise any size: one beyond the renderers' limits is
+    /// refused with the limits named, before any allocation; one within them
+    /// costs no more memory than the file holds.
+    #[test]
+    fn hostile_pfm_headers_are_errors() {
+        for dims in [
+            "32768 32768",
+            "4294967295 4294967295",
+            "16385 1",
+            "16384 16384",
+        ] {
+            let e = Image::read_pfm(format!("PF\n{dims}\n-1.0\n").as_bytes()).unwrap_err();
+            assert!(
+                e.to_string()
+                    .contains("at most 16384 per side and 33554432 pixels"),
+                "{dims}: {e}"
+            );
+        }
+        // the largest size allowed, with no data behind it
+        let e = Image::read_pfm(&b"PF\n16384 2048\n-1.0\n"[..]).unwrap_err();
+        assert!(e.to_string().contains("truncated pixel data"), "{e}");
+        let e = Image::read_pfm(&b"PF\n0 5\n-1.0\n"[..]).unwrap_err();
+        assert!(e.to_string().contains("zero width or height"), "{e}");
+        let e = Image::read_pfm(&b"PF\n99999999999 5\n-1.0\n"[..]).unwrap_err();
+        assert!(e.to_string().contains("width"), "{e}");
     }
 
     #[test]

@@ -2,15 +2,19 @@
 
 use crate::image::Image;
 use micropt::budget::{
-    AdaptiveOptions, Budget, TILE_PIXELS, TileAccum, allocate_tiles, budget_samples,
-    deadline_samples,
+    AdaptiveOptions, Budget, MAX_SPP, Pace, TILE_PIXELS, TileAccum, allocate_tiles, budget_samples,
 };
-use micropt::film::{TILE, Tile, tile_at, tile_count, tiles};
+use micropt::film::{TILE, tile_at, tile_count};
+use micropt::scene::{MAX_PIXELS, MAX_SIDE};
 use micropt::{Color, Options, Renderer, Scene, Stats};
 use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Instant;
+
+/// Most worker threads a render starts (each is an operating-system thread
+/// with its own stack; far more than any host has cores).
+pub const MAX_THREADS: usize = 1024;
 
 /// The host's sphere capacity: scenes of thousands of spheres.
 pub const HOST_SPHERES: usize = 4096;
@@ -88,13 +92,59 @@ pub struct RenderOutput {
     pub threads: usize,
 }
 
-/// The number of threads `threads` means (0: the machine's cores).
+/// The number of threads `threads` means (0: the machine's cores), at most
+/// [`MAX_THREADS`].
 pub fn resolve_threads(threads: usize) -> usize {
     if threads > 0 {
-        threads
+        threads.min(MAX_THREADS)
     } else {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     }
+}
+
+/// Checks an image size against the limits of the scene format
+/// ([`MAX_SIDE`] per side, [`MAX_PIXELS`] in all); the message names them.
+pub fn check_size(width: u32, height: u32) -> Result<(), String> {
+    if width == 0 || height == 0 {
+        return Err("image size must be at least 1x1".into());
+    }
+    if width > MAX_SIDE || height > MAX_SIDE {
+        return Err(format!(
+            "image size {width}x{height} is too large: each side must be at most {MAX_SIDE}"
+        ));
+    }
+    if u64::from(width) * u64::from(height) > u64::from(MAX_PIXELS) {
+        return Err(format!(
+            "image size {width}x{height} is too large: at most {MAX_PIXELS} pixels"
+        ));
+    }
+    Ok(())
+}
+
+/// Runs `work(tile_index)` for every index in `0..n` on up to `threads`
+/// threads, this one included. A thread the system refuses to start is done
+/// without (the work is shared through one counter), so a render never
+/// aborts for want of threads.
+fn parallel_tiles(n: usize, threads: usize, work: &(dyn Fn(usize) + Sync)) {
+    let next = AtomicUsize::new(0);
+    let run = || {
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            if i >= n {
+                break;
+            }
+            work(i);
+        }
+    };
+    let run = &run;
+    std::thread::scope(|s| {
+        for _ in 1..threads.min(n) {
+            if std::thread::Builder::new().spawn_scoped(s, run).is_err() {
+                break;
+            }
+        }
+        run();
+    });
 }
 
 /// Renders `scene` as `job` says, calling `on_tile` after every finished
@@ -105,9 +155,7 @@ pub fn render<const S: usize, const P: usize, const M: usize>(
     job: &RenderJob,
     on_tile: &(dyn Fn() + Sync),
 ) -> Result<RenderOutput, String> {
-    if job.width == 0 || job.height == 0 {
-        return Err("image size must be at least 1x1".into());
-    }
+    check_size(job.width, job.height)?;
     if job.spp == 0 {
         return Err("--spp must be at least 1".into());
     }
@@ -115,35 +163,27 @@ pub fn render<const S: usize, const P: usize, const M: usize>(
         .map_err(|e| format!("camera: {e:?}"))?
         .seed(job.seed)
         .options(job.options);
-    let all: Vec<Tile> = tiles(job.width, job.height).collect();
-    let threads = resolve_threads(job.threads).min(all.len()).max(1);
+    let n = tile_count(job.width, job.height);
+    let threads = resolve_threads(job.threads).min(n).max(1);
     let image = Mutex::new(Image::new(job.width, job.height));
     let stats = Mutex::new(Stats::default());
-    let next = AtomicUsize::new(0);
     let start = Instant::now();
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| {
-                let mut local = Stats::default();
-                let mut px = [Color::ZERO; (TILE * TILE) as usize];
-                while let Some(tile) = all.get(next.fetch_add(1, Ordering::Relaxed)) {
-                    renderer.render_tile(tile, job.spp, &mut px, &mut local);
-                    {
-                        let mut img = image.lock().unwrap_or_else(|e| e.into_inner());
-                        for (i, c) in px.iter().take(tile.len()).enumerate() {
-                            let (x, y) = (tile.x + i as u32 % tile.w, tile.y + i as u32 / tile.w);
-                            let w = img.width;
-                            img.pixels[(y * w + x) as usize] = *c;
-                        }
-                    }
-                    on_tile();
-                }
-                stats
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .merge(&local);
-            });
-        }
+    parallel_tiles(n, threads, &|i| {
+        let Some(tile) = tile_at(job.width, job.height, i) else {
+            return;
+        };
+        let mut local = Stats::default();
+        let mut px = [Color::ZERO; (TILE * TILE) as usize];
+        renderer.render_tile(&tile, job.spp, &mut px, &mut local);
+        image
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .put_tile(&tile, &px);
+        stats
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .merge(&local);
+        on_tile();
     });
     let seconds = start.elapsed().as_secs_f64();
     Ok(RenderOutput {
@@ -192,38 +232,41 @@ pub struct BudgetOutput {
     pub threads: usize,
 }
 
-/// Runs `work(tile_index)` for every index in `0..n` on `threads` threads.
-fn parallel_tiles(n: usize, threads: usize, work: &(dyn Fn(usize) + Sync)) {
-    let next = AtomicUsize::new(0);
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    if i >= n {
-                        break;
-                    }
-                    work(i);
-                }
-            });
-        }
-    });
-}
-
 /// Renders `scene` within `job.budget` on threads: the preview pass over
 /// all tiles, then the refinement of every tile, with the core's per-tile
 /// functions. For sample budgets the image is bit-identical to the core's
 /// single-core [`micropt::budget::render_budget`] (which recomputes the
-/// preview instead of keeping it) for any thread count.
+/// preview instead of keeping it) for any thread count. A deadline is read
+/// from the system's monotonic clock.
 pub fn render_budget<const S: usize, const P: usize, const M: usize>(
     scene: &Scene<S, P, M>,
     job: &BudgetJob,
     on_tile: &(dyn Fn() + Sync),
 ) -> Result<BudgetOutput, String> {
+    let start = Instant::now();
+    let clock = || u64::try_from(start.elapsed().as_micros()).unwrap_or(u64::MAX);
+    render_budget_timed(scene, job, on_tile, &clock)
+}
+
+/// [`render_budget`] with the time read from `clock` (microseconds from any
+/// fixed origin; called from every worker thread), e.g. a scripted clock
+/// that makes a deadline's accounting testable.
+///
+/// A deadline refines in rounds over the whole image (every tile keeps its
+/// accumulators here), each sized by [`Pace::round`] from the rate the
+/// rounds so far measured and the time left: half of what it affords until
+/// that is less than two samples per pixel, then the rest, which the
+/// deadline (looked at every [`micropt::budget::BATCH`] samples) may cut.
+/// Each round goes over the tiles in up to 4 passes, so a cut round leaves
+/// the tiles at most a pass apart.
+pub fn render_budget_timed<const S: usize, const P: usize, const M: usize>(
+    scene: &Scene<S, P, M>,
+    job: &BudgetJob,
+    on_tile: &(dyn Fn() + Sync),
+    clock: &(dyn Fn() -> u64 + Sync),
+) -> Result<BudgetOutput, String> {
     let (w, h) = (job.width, job.height);
-    if w == 0 || h == 0 {
-        return Err("image size must be at least 1x1".into());
-    }
+    check_size(w, h)?;
     match job.budget {
         Budget::Spp(0) => return Err("--spp must be at least 1".into()),
         Budget::Deadline(0) => return Err("--budget-ms must be at least 1".into()),
@@ -236,86 +279,103 @@ pub fn render_budget<const S: usize, const P: usize, const M: usize>(
     let n = tile_count(w, h);
     let threads = resolve_threads(job.threads).min(n).max(1);
     let stats = Mutex::new(Stats::default());
-    let start = Instant::now();
+    let merge = |local: &Stats| {
+        stats.lock().unwrap_or_else(|e| e.into_inner()).merge(local);
+    };
+    let start = clock();
 
     // pass 1: preview (sample 0 everywhere), keeping each tile's accumulators
-    let previews: Vec<Mutex<Option<Box<TileAccum>>>> = (0..n).map(|_| Mutex::new(None)).collect();
+    let accs: Vec<Mutex<Option<Box<TileAccum>>>> = (0..n).map(|_| Mutex::new(None)).collect();
     parallel_tiles(n, threads, &|i| {
         let Some(tile) = tile_at(w, h, i) else { return };
         let mut acc = Box::new(TileAccum::new());
         let mut local = Stats::default();
         renderer.preview_tile(&tile, &mut acc, &mut local);
-        *previews[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(acc);
-        stats
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .merge(&local);
+        *accs[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(acc);
+        merge(&local);
         on_tile();
     });
-    let preview_seconds = start.elapsed().as_secs_f64();
+    let preview_us = clock().saturating_sub(start);
 
-    // allocation
-    let pixels = u64::from(w) * u64::from(h);
-    let (extra, deadline) = match job.budget {
-        Budget::Deadline(us) => {
-            let pre_us = (preview_seconds * 1e6) as u64;
-            (
-                deadline_samples(us, pre_us, pixels, 0),
-                Some(start + Duration::from_micros(us)),
-            )
-        }
-        b => (budget_samples(&b, w, h).unwrap_or(pixels) - pixels, None),
-    };
-    let mut shares = vec![0u64; n];
-    allocate_tiles(w, h, extra, |i, s| shares[i] = s);
-
-    // pass 2: refinement
-    let image = Mutex::new(Image::new(w, h));
-    let counts = Mutex::new(vec![0u32; (w * h) as usize]);
-    let spent = AtomicU64::new(0);
-    parallel_tiles(n, threads, &|i| {
-        let Some(tile) = tile_at(w, h, i) else { return };
-        let Some(mut acc) = previews[i].lock().unwrap_or_else(|e| e.into_inner()).take() else {
-            return;
-        };
-        let mut local = Stats::default();
-        let mut stop = |_: u64| deadline.is_some_and(|d| Instant::now() >= d);
-        if !stop(0) {
-            let s = renderer.refine_tile(
-                &tile,
-                &mut acc,
-                shares[i],
-                &job.adaptive,
-                &mut stop,
-                &mut local,
-            );
-            spent.fetch_add(s, Ordering::Relaxed);
-        }
-        let mut px = [Color::ZERO; TILE_PIXELS];
-        acc.means(&mut px);
-        {
-            let mut img = image.lock().unwrap_or_else(|e| e.into_inner());
-            let mut cnt = counts.lock().unwrap_or_else(|e| e.into_inner());
-            for (k, c) in px.iter().take(tile.len()).enumerate() {
-                let (x, y) = (tile.x + k as u32 % tile.w, tile.y + k as u32 / tile.w);
-                let idx = (y * w + x) as usize;
-                img.pixels[idx] = *c;
-                cnt[idx] = acc.count(k);
+    // pass 2: refinement, in rounds of `total` samples split over the tiles
+    // by pixel count. A deadline's round goes over the tiles in `passes`
+    // (each a part of every tile's share), so that a round the deadline cuts
+    // leaves the tiles at most one pass apart, not some of them a whole
+    // round behind. A sample budget's one round is one pass: one
+    // `refine_tile` call per tile, as on the board.
+    let round = |total: u64, deadline: Option<u64>, passes: u64| -> u64 {
+        let mut shares = vec![0u64; n];
+        allocate_tiles(w, h, total, |i, s| shares[i] = s);
+        let spent = AtomicU64::new(0);
+        let items = n.saturating_mul(passes as usize);
+        parallel_tiles(items, threads, &|j| {
+            let (i, pass) = (j % n, (j / n) as u64);
+            // this pass's part of the share: cumulative rounding
+            let part = shares[i] * (pass + 1) / passes - shares[i] * pass / passes;
+            let mut guard = accs[i].lock().unwrap_or_else(|e| e.into_inner());
+            if let (Some(tile), Some(acc), true) = (tile_at(w, h, i), guard.as_mut(), part > 0) {
+                let mut local = Stats::default();
+                let mut stop = |_: u64| deadline.is_some_and(|d| clock() >= d);
+                let s =
+                    renderer.refine_tile(&tile, acc, part, &job.adaptive, &mut stop, &mut local);
+                spent.fetch_add(s, Ordering::Relaxed);
+                merge(&local);
             }
+            if deadline.is_none() {
+                on_tile();
+            }
+        });
+        spent.into_inner()
+    };
+    let pixels = u64::from(w) * u64::from(h);
+    let refined = match job.budget {
+        Budget::Deadline(us) => {
+            let deadline = start.saturating_add(us);
+            let mut pace = Pace::new(deadline, pixels, preview_us);
+            let most = pixels.saturating_mul(u64::from(MAX_SPP) - 1);
+            let begin = clock();
+            let mut refined = 0u64;
+            loop {
+                let now = clock();
+                let total = pace.round(now, pixels).min(most - refined);
+                if total == 0 || now >= deadline {
+                    break;
+                }
+                // passes of at least one sample per pixel, at most 4
+                let passes = (total / pixels).clamp(1, 4);
+                refined += round(total, Some(deadline), passes);
+                pace.measured(refined, clock().saturating_sub(begin));
+            }
+            (0..n).for_each(|_| on_tile());
+            refined
         }
-        stats
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .merge(&local);
-        on_tile();
-    });
+        b => round(budget_samples(&b, w, h).unwrap_or(pixels) - pixels, None, 1),
+    };
+
+    let mut image = Image::new(w, h);
+    let mut counts = vec![0u32; image.pixels.len()];
+    let mut px = [Color::ZERO; TILE_PIXELS];
+    for (i, acc) in accs.into_iter().enumerate() {
+        let (Some(tile), Some(acc)) = (
+            tile_at(w, h, i),
+            acc.into_inner().unwrap_or_else(|e| e.into_inner()),
+        ) else {
+            continue;
+        };
+        acc.means(&mut px);
+        image.put_tile(&tile, &px);
+        for (k, c) in image.tile_indices(&tile).enumerate() {
+            counts[c] = acc.count(k);
+        }
+    }
+    let seconds = clock().saturating_sub(start) as f64 * 1e-6;
     Ok(BudgetOutput {
-        image: image.into_inner().unwrap_or_else(|e| e.into_inner()),
-        counts: counts.into_inner().unwrap_or_else(|e| e.into_inner()),
-        samples: pixels + spent.load(Ordering::Relaxed),
+        image,
+        counts,
+        samples: pixels + refined,
         stats: stats.into_inner().unwrap_or_else(|e| e.into_inner()),
-        preview_seconds,
-        seconds: start.elapsed().as_secs_f64(),
+        preview_seconds: preview_us as f64 * 1e-6,
+        seconds,
         threads,
     })
 }

@@ -438,3 +438,88 @@ fn smallpt_bench_prints_the_table() {
     assert!(text.contains("| spp | seeds |"), "{text}");
     assert!(text.contains("\n| 4 | 1 | "), "{text}");
 }
+
+/// Huge and hostile inputs: a clear error naming the limit, at once, never a
+/// panic, an abort, a hang or a huge allocation.
+#[test]
+fn huge_inputs_are_refused_with_the_limit_in_the_message() {
+    let s = scene("furnace.scene");
+    let s = s.to_str().unwrap();
+    let o = tmp("huge.png");
+    let o = o.to_str().unwrap();
+    // a scene asking for 60000x60000 (a 43 GB image): refused at its line
+    let big = tmp("big.scene");
+    std::fs::write(
+        &big,
+        "camera 0 0 4  0 0 0  0 1 0  40\nresolution 60000 60000\n",
+    )
+    .unwrap();
+    let out = run(&["render", big.to_str().unwrap(), "-o", o]);
+    assert_clean_error(&out, "line 2: resolution out of range");
+    assert_clean_error(&out, "each side from 1 to 16384, at most 33554432 pixels");
+    // --size: each side, then the product
+    assert_clean_error(
+        &run(&["render", s, "--size", "60000x60000", "-o", o]),
+        "each side must be at most 16384",
+    );
+    assert_clean_error(
+        &run(&["render", s, "--size", "16384x16384", "-o", o]),
+        "at most 33554432 pixels",
+    );
+    assert_clean_error(
+        &run(&["render", s, "--size", "99999999999x1", "-o", o]),
+        "not a whole number",
+    );
+    // counts the renderer could not hold or start
+    assert_clean_error(
+        &run(&["render", s, "--spp", "4294967295", "-o", o]),
+        "1..=1048576",
+    );
+    assert_clean_error(
+        &run(&["render", s, "--threads", "4294967295", "-o", o]),
+        "1..=1024",
+    );
+    assert_clean_error(
+        &run(&[
+            "render",
+            s,
+            "--size",
+            "8x8",
+            "--budget-paths",
+            "18446744073709551615",
+            "-o",
+            o,
+        ]),
+        "more than 1048576 samples per pixel of a 8x8 image (at most 67108864)",
+    );
+    // at the thread limit, with a tile for each thread: accepted
+    let v = json_of(&[
+        "render",
+        s,
+        "--size",
+        "512x512",
+        "--threads",
+        "1024",
+        "--spp",
+        "1",
+        "--json",
+        "-o",
+        o,
+    ]);
+    assert_eq!(v["samples"], 512 * 512);
+    // a deadline of 584 million years on one pixel ends when the pixel has
+    // the most samples a budget may give (2^20)
+    let v = json_of(&[
+        "render",
+        s,
+        "--size",
+        "1x1",
+        "--budget-ms",
+        "18446744073709551615",
+        "--uniform",
+        "--json",
+        "-o",
+        o,
+    ]);
+    assert_eq!(v["samples"], 1 << 20);
+}

@@ -183,11 +183,8 @@ fn values_out_of_range() {
             "background 0 -1 0\n",
             SceneError::OutOfRange("background radiance"),
         ),
-        ("resolution 0 48\n", SceneError::OutOfRange("resolution")),
-        (
-            "resolution 64 99999999999\n",
-            SceneError::OutOfRange("resolution"),
-        ),
+        ("resolution 0 48\n", SceneError::Resolution),
+        ("resolution 64 99999999999\n", SceneError::Resolution),
     ];
     for (body, want) in cases {
         let e = err_after_camera(body);
@@ -288,6 +285,38 @@ fn light_material_on_a_plane() {
         (e.line, e.kind),
         (3, ParseErrorKind::Scene(SceneError::LightOnPlane))
     );
+}
+
+/// A resolution larger than the renderers can hold is refused at its line,
+/// and the message names the limits: no render of a 60000x60000 scene
+/// starts only to run out of time or memory.
+#[test]
+fn huge_resolutions_are_line_errors_that_name_the_limits() {
+    use micropt::scene::{MAX_PIXELS, MAX_SIDE};
+    let side_limit = format!("each side from 1 to {MAX_SIDE}, at most {MAX_PIXELS} pixels");
+    for body in [
+        "resolution 60000 60000\n".to_string(),
+        format!("resolution {} 1\n", MAX_SIDE + 1),
+        format!("resolution 1 {}\n", MAX_SIDE + 1),
+        // each side within the limit, the product not
+        format!("resolution {MAX_SIDE} {MAX_SIDE}\n"),
+        "resolution 65535 65535\n".to_string(),
+        "resolution 4294967295 4294967295\n".to_string(),
+        "resolution 4294967296 1\n".to_string(),
+    ] {
+        let e = err_after_camera(&body);
+        assert_eq!(
+            (e.line, e.kind),
+            (2, ParseErrorKind::Scene(SceneError::Resolution)),
+            "{body}"
+        );
+        assert!(e.to_string().contains(&side_limit), "{e}");
+    }
+    // the largest allowed
+    for (w, h) in [(MAX_SIDE, MAX_PIXELS / MAX_SIDE), (1, MAX_SIDE)] {
+        let s = parse(&format!("{CAM}resolution {w} {h}\n")).unwrap();
+        assert_eq!(s.resolution(), Some((w, h)));
+    }
 }
 
 #[test]

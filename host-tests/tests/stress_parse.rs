@@ -39,6 +39,8 @@ const WORDS: &[&str] = &[
     "inf",
     "-inf",
     "180",
+    "16384",
+    "16385",
     "65536",
     "4294967296",
     "#",
@@ -126,6 +128,15 @@ fn check(data: &[u8], accepted: &Cell<u64>) -> Result<(), TestCaseError> {
             }
             prop_assert!(scene.camera().validate().is_ok());
             prop_assert!(scene.background().is_finite());
+            if let Some((w, h)) = scene.resolution() {
+                // a size every renderer can hold
+                prop_assert!(
+                    micropt_host::render::check_size(w, h).is_ok(),
+                    "{}x{}",
+                    w,
+                    h
+                );
+            }
         }
     }
     Ok(())

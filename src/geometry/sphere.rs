@@ -129,6 +129,18 @@ impl Sphere {
         if math::abs(c) < self.radius2 * 0.0625
             && (c > 0.0 || b < 0.0 || -c <= math::gamma(8) * (c + 2.0 * self.radius2))
         {
+            // the recomputation costs some 60 operations: first a bound on
+            // the rounded c, |c − c_exact| ≤ γ(8)(|f|² + r²) + 2r|δ| (three
+            // roundings of f, three of |f|², one of the difference, and the
+            // radius' residual); where |c| − slack ≥ t_max |q|, the exact c
+            // has the same sign and its root lies beyond t_max too: the same
+            // answer, for most walls a ray heads toward once a nearer hit is
+            // known
+            let slack = math::gamma(8) * (c + 2.0 * self.radius2)
+                + 2.0 * self.radius * math::abs(self.radius_lo);
+            if math::abs(c) - slack >= t_max * math::abs(q) {
+                return None;
+            }
             c = self.origin_power(ray.origin);
         }
         let t = if c > 0.0 || b < 0.0 { c / q } else { q };
@@ -145,7 +157,7 @@ impl Sphere {
     /// the sum are split into exact high and low parts
     /// ([`math::two_sum`], [`math::two_square`]).
     #[inline(never)]
-    fn origin_power(&self, o: Vec3) -> f32 {
+    pub(crate) fn origin_power(&self, o: Vec3) -> f32 {
         let (fx, ex) = math::two_sum(o.x, -self.center.x);
         let (fy, ey) = math::two_sum(o.y, -self.center.y);
         let (fz, ez) = math::two_sum(o.z, -self.center.z);
@@ -202,7 +214,7 @@ impl Sphere {
     /// A sphere much larger than the hit point's coordinates (smallpt's
     /// walls: r = 1e5 around a room 100 units wide) would get a bound of
     /// γ(5)·r that way, far above the scene's own rounding; its hit point
-    /// is refined instead (`hit_huge`, private).
+    /// is refined at the point's own scale instead.
     #[inline]
     pub fn hit(&self, ray: &Ray, t: f32, id: ObjectId) -> Hit {
         let p0 = ray.origin + ray.dir * t;

@@ -151,9 +151,9 @@ pub fn parse_f32(s: &str) -> Option<f32> {
 
 /// What the decimal `s` lacks beyond `hi`, its correctly rounded f32 value
 /// ([`parse_f32`]), to about 2⁻²⁰ of itself: `hi + residual(s, hi)` is `s`
-/// to some 44 bits. 0 for strings `parse_f32` rejects, for infinities, NaN
-/// and zero, and where the value or its residual would leave the normal
-/// f32 range.
+/// to some 44 bits, for a string that `parse_f32` accepts (others give 0 or
+/// a meaningless value, never a panic). 0 for infinities, NaN and zero, and
+/// where the value or its residual would leave the normal f32 range.
 ///
 /// The digits accumulate in double-f32 arithmetic (an unevaluated sum of
 /// two f32s, exact products and sums by [`math::two_prod`] and
@@ -162,8 +162,9 @@ pub fn parse_f32(s: &str) -> Option<f32> {
 /// within an ulp of the high part, so their difference is exact. Used for
 /// the centres and radii of spheres, where the rounding of a coordinate of
 /// 1e5 is a visible distance in a room of 100 units.
+#[inline(never)]
 pub fn residual(s: &str, hi: f32) -> f32 {
-    if parse_f32(s).is_none() || !math::is_finite(hi) || hi == 0.0 {
+    if !math::is_finite(hi) || hi == 0.0 {
         return 0.0;
     }
     let bytes = s.as_bytes();
@@ -189,7 +190,8 @@ pub fn residual(s: &str, hi: f32) -> f32 {
                 }
             }
             b'.' => seen_point = true,
-            _ => break,
+            b'e' | b'E' => break,
+            _ => return 0.0,
         }
         rest = tail;
     }
@@ -200,7 +202,10 @@ pub fn residual(s: &str, hi: f32) -> f32 {
             _ => (false, tail),
         };
         let mut e: i32 = 0;
-        for c in tail {
+        for &c in tail {
+            if !c.is_ascii_digit() {
+                return 0.0;
+            }
             if e < 10_000 {
                 e = e * 10 + i32::from(c - b'0');
             }

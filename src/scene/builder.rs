@@ -1,7 +1,7 @@
 //! Building a scene in code: every value is checked as it is added, and
 //! [`SceneBuilder::build`] runs the load-time analysis.
 
-use super::{MAX_MATERIALS, MAX_PLANES, MAX_SPHERES, Scene};
+use super::{Capacities, MAX_MATERIALS, MAX_PIXELS, MAX_PLANES, MAX_SIDE, MAX_SPHERES, Scene};
 use crate::analysis::{analyse_into, tree_pays};
 use crate::camera::{CameraError, CameraSpec};
 use crate::geometry::{Color, ObjectId, Plane, Sphere, Vec3};
@@ -20,6 +20,9 @@ pub enum SceneError {
     Capacity(&'static str),
     /// A value outside its allowed range; names the quantity.
     OutOfRange(&'static str),
+    /// A `resolution` that is zero or larger than [`MAX_SIDE`] per side or
+    /// [`MAX_PIXELS`] in all.
+    Resolution,
     /// A value that is NaN or infinite.
     NotFinite,
     /// A material handle from another scene, or out of range.
@@ -52,6 +55,7 @@ impl core::fmt::Display for SceneError {
                 f.write_str(what)?;
                 f.write_str(" out of range")
             }
+            SceneError::Resolution => f.write_str(RESOLUTION_LIMITS),
             SceneError::NotFinite => f.write_str("value is not finite"),
             SceneError::UnknownMaterial => f.write_str("unknown material"),
             SceneError::LightOnPlane => {
@@ -78,6 +82,12 @@ impl core::fmt::Display for SceneError {
         }
     }
 }
+
+/// The message of [`SceneError::Resolution`] (a literal, checked against
+/// the constants by a test: formatting the numbers would link the formatter's
+/// padding code into a board's flash).
+const RESOLUTION_LIMITS: &str =
+    "resolution out of range: each side from 1 to 16384, at most 33554432 pixels in all";
 
 /// Builds a [`Scene`] in code, checking every value as it is added.
 #[derive(Clone, Debug)]
@@ -130,6 +140,7 @@ fn check_non_negative(c: Color, what: &'static str) -> Result<(), SceneError> {
 impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
     /// An empty scene: no objects, black background, no camera yet.
     pub const fn new() -> Self {
+        let () = Capacities::<S, P, M>::CHECK;
         Self {
             spheres: Vec::new(),
             planes: Vec::new(),
@@ -268,10 +279,17 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         Ok(())
     }
 
-    /// Sets the default image size (each side in 1..=65535).
+    /// Sets the default image size: each side in 1..=[`MAX_SIDE`], at most
+    /// [`MAX_PIXELS`] in all (else [`SceneError::Resolution`]).
     pub fn resolution(&mut self, width: u32, height: u32) -> Result<(), SceneError> {
-        if width == 0 || height == 0 || width > 65_535 || height > 65_535 {
-            return Err(SceneError::OutOfRange("resolution"));
+        let pixels = u64::from(width) * u64::from(height);
+        if width == 0
+            || height == 0
+            || width > MAX_SIDE
+            || height > MAX_SIDE
+            || pixels > u64::from(MAX_PIXELS)
+        {
+            return Err(SceneError::Resolution);
         }
         self.resolution = Some((width, height));
         Ok(())
@@ -330,6 +348,51 @@ mod tests {
             up: Vec3::new(0.0, 1.0, 0.0),
             vfov_deg: 45.0,
         }
+    }
+
+    #[test]
+    fn resolution_is_bounded_and_the_message_names_the_bounds() {
+        use core::fmt::Write;
+        let mut b: SceneBuilder<1, 1, 1> = SceneBuilder::new();
+        assert_eq!(b.resolution(MAX_SIDE, MAX_PIXELS / MAX_SIDE), Ok(()));
+        assert_eq!(b.resolution(1, MAX_SIDE), Ok(()));
+        for (w, h) in [
+            (0, 1),
+            (1, 0),
+            (MAX_SIDE + 1, 1),
+            (1, MAX_SIDE + 1),
+            (MAX_SIDE, MAX_PIXELS / MAX_SIDE + 1),
+            (60_000, 60_000),
+            (u32::MAX, u32::MAX),
+        ] {
+            assert_eq!(b.resolution(w, h), Err(SceneError::Resolution), "{w}x{h}");
+        }
+        let (mut got, mut want) = (
+            heapless::String::<128>::new(),
+            heapless::String::<128>::new(),
+        );
+        write!(got, "{}", SceneError::Resolution).unwrap();
+        write!(
+            want,
+            "each side from 1 to {MAX_SIDE}, at most {MAX_PIXELS} pixels"
+        )
+        .unwrap();
+        assert!(got.contains(want.as_str()), "{got}");
+    }
+
+    #[test]
+    fn the_largest_capacity_fits_the_ids() {
+        // the check behind `MAX_CAPACITY` (a larger one fails to compile, see
+        // its doc test) and what it protects: the last sphere and plane keep
+        // ids of their own, neither of them "nothing"
+        use crate::scene::MAX_CAPACITY;
+        let () = Capacities::<MAX_CAPACITY, MAX_CAPACITY, MAX_CAPACITY>::CHECK;
+        let (s, p) = (
+            ObjectId::sphere(MAX_CAPACITY - 1),
+            ObjectId::plane(MAX_CAPACITY - 1),
+        );
+        assert!(s != p && s != ObjectId::NONE && p != ObjectId::NONE);
+        assert!(ObjectId::plane(MAX_CAPACITY) == ObjectId::NONE);
     }
 
     #[test]

@@ -24,6 +24,36 @@ pub const MAX_PLANES: usize = 16;
 /// Default capacity: materials.
 pub const MAX_MATERIALS: usize = 32;
 
+/// Largest capacity of each kind (spheres, planes, materials) a scene type
+/// may have. An object's id is a 15-bit index with a plane flag (all ones
+/// meaning "nothing"), and lights and materials are listed by `u16` index:
+/// a larger capacity would give two objects one id. A `Scene` or
+/// `SceneBuilder` type with a larger capacity does not compile:
+///
+/// ```compile_fail,E0080
+/// let too_big: micropt::SceneBuilder<40_000, 1, 1> = micropt::SceneBuilder::new();
+/// ```
+pub const MAX_CAPACITY: usize = 0x7fff;
+
+/// Largest width or height of an image a scene's `resolution` may give
+/// (the host's renderer and its `--size` share the limit).
+pub const MAX_SIDE: u32 = 16_384;
+/// Most pixels in an image a scene's `resolution` may give (8192 × 4096;
+/// about 1.2 GB of the host's accumulators and image).
+pub const MAX_PIXELS: u32 = 1 << 25;
+
+/// Whether capacities `S`, `P`, `M` fit the ids (see [`MAX_CAPACITY`]).
+pub(crate) struct Capacities<const S: usize, const P: usize, const M: usize>;
+
+impl<const S: usize, const P: usize, const M: usize> Capacities<S, P, M> {
+    /// Evaluated where a scene type is made: a compile error for a capacity
+    /// over [`MAX_CAPACITY`].
+    pub(crate) const CHECK: () = assert!(
+        S <= MAX_CAPACITY && P <= MAX_CAPACITY && M <= MAX_CAPACITY,
+        "a micropt scene capacity exceeds micropt::scene::MAX_CAPACITY (32767)"
+    );
+}
+
 /// A validated scene with fixed capacities (default 128 spheres, 16 planes,
 /// 32 materials; choose others with the const parameters).
 ///
@@ -65,20 +95,23 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
     /// [`parse_into`](crate::parse::parse_into) fill in place (a `static`
     /// initialised with it goes to `.bss`). It cannot be rendered:
     /// [`Renderer::new`](crate::Renderer::new) refuses its camera.
-    pub const EMPTY: Self = Self {
-        spheres: Vec::new(),
-        planes: Vec::new(),
-        materials: Vec::new(),
-        analysis: Analysis::EMPTY,
-        bvh: Bvh::EMPTY,
-        background: Color::ZERO,
-        camera: CameraSpec {
-            eye: Vec3::ZERO,
-            target: Vec3::ZERO,
-            up: Vec3::ZERO,
-            vfov_deg: 0.0,
-        },
-        resolution: None,
+    pub const EMPTY: Self = {
+        let () = Capacities::<S, P, M>::CHECK;
+        Self {
+            spheres: Vec::new(),
+            planes: Vec::new(),
+            materials: Vec::new(),
+            analysis: Analysis::EMPTY,
+            bvh: Bvh::EMPTY,
+            background: Color::ZERO,
+            camera: CameraSpec {
+                eye: Vec3::ZERO,
+                target: Vec3::ZERO,
+                up: Vec3::ZERO,
+                vfov_deg: 0.0,
+            },
+            resolution: None,
+        }
     };
 
     /// The spheres.
@@ -168,6 +201,7 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             light_clear: a.light_clear,
             horizon_planes: a.horizon_planes,
             horizon_spheres: a.horizon_spheres,
+            windows: &a.windows,
             shadow_lights: a.listed_shadow.iter().any(|l| {
                 a.emitters
                     .iter()

@@ -50,6 +50,8 @@ pub struct SceneView<'a> {
     pub horizon_planes: bool,
     /// The same for diffuse spheres.
     pub horizon_spheres: bool,
+    /// Windows of the reachable lights that an opaque wall cuts.
+    pub windows: &'a [crate::light::Window],
     /// Background radiance.
     pub background: Color,
     /// No ray can escape (the background is never seen).
