@@ -444,18 +444,24 @@ pub fn radiance(
         },
         windows,
     };
+    // the queries are compiled with and without the tree, so that a scene
+    // without one (a firmware for a small scene has no tree code at all)
+    // tests nothing about it per ray
+    let tree = !cfg!(micropt_no_bvh) && scene.bvh.is_some();
     // many lights, or the skip off: the general variant
-    if many {
-        trace::<true>(&ctx, ray, stream, opts, stats)
-    } else {
-        trace::<false>(&ctx, ray, stream, opts, stats)
+    match (many, tree) {
+        (true, false) => trace::<true, false>(&ctx, ray, stream, opts, stats),
+        (false, false) => trace::<false, false>(&ctx, ray, stream, opts, stats),
+        (true, true) => trace::<true, true>(&ctx, ray, stream, opts, stats),
+        (false, true) => trace::<false, true>(&ctx, ray, stream, opts, stats),
     }
 }
 
 /// The path tracer, compiled for scenes with several lights (`MANY`) or
-/// with one.
+/// with one, and for rays that find their spheres through the scene's tree
+/// (`TREE`) or its lists.
 #[inline(always)]
-fn trace<const MANY: bool>(
+fn trace<const MANY: bool, const TREE: bool>(
     ctx: &Ctx<'_, '_>,
     ray: Ray,
     stream: &mut SampleStream<'_>,
@@ -494,7 +500,7 @@ fn trace<const MANY: bool>(
             scene.tested
         };
         let found = if opts.skip.slabs {
-            scene.closest_hit_among(&ray, from, spheres)
+            scene.closest_hit_in::<TREE>(&ray, from, spheres)
         } else {
             scene.closest_hit_any_among(&ray, from, spheres)
         };
@@ -556,7 +562,7 @@ fn trace<const MANY: bool>(
                         weight_sum = sum;
                         if let Some(c) = choice {
                             let through = match window_of(ctx.windows, c.sphere) {
-                                Some(w) => direct_window(
+                                Some(w) => direct_window::<TREE>(
                                     scene,
                                     &hit,
                                     n,
@@ -572,9 +578,17 @@ fn trace<const MANY: bool>(
                             };
                             l += match through {
                                 Some(e) => e,
-                                None => {
-                                    direct(scene, &hit, n, albedo, thr, &c, u, opts, &mut shadows)
-                                }
+                                None => direct::<TREE>(
+                                    scene,
+                                    &hit,
+                                    n,
+                                    albedo,
+                                    thr,
+                                    &c,
+                                    u,
+                                    opts,
+                                    &mut shadows,
+                                ),
                             };
                         }
                     } else if let Some(one) = &ctx.one {
@@ -589,7 +603,7 @@ fn trace<const MANY: bool>(
                                 d2,
                             };
                             let through = match one.window {
-                                Some(w) => nee_window::<MANY>(
+                                Some(w) => nee_window::<MANY, TREE>(
                                     scene,
                                     &hit,
                                     n,
@@ -608,7 +622,7 @@ fn trace<const MANY: bool>(
                                 light_omc = -1.0;
                                 l += e;
                             } else {
-                                l += nee::<MANY>(
+                                l += nee::<MANY, TREE>(
                                     scene,
                                     &hit,
                                     n,
@@ -697,7 +711,7 @@ fn trace<const MANY: bool>(
 /// ever divided by. With one light `a ≤ 2`, so `a²` cannot overflow.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn direct(
+fn direct<const TREE: bool>(
     scene: &SceneView<'_>,
     hit: &Hit,
     n: Vec3,
@@ -714,7 +728,7 @@ fn direct(
     let Some(Material::Light(le)) = scene.materials.get(s.material as usize) else {
         return Color::ZERO;
     };
-    nee::<true>(
+    nee::<true, TREE>(
         scene,
         hit,
         n,
@@ -732,7 +746,7 @@ fn direct(
 /// [`direct`] through the light's window (the several-lights variant).
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn direct_window(
+fn direct_window<const TREE: bool>(
     scene: &SceneView<'_>,
     hit: &Hit,
     n: Vec3,
@@ -752,14 +766,14 @@ fn direct_window(
         Some(Material::Light(le)) => *le,
         _ => return None,
     };
-    nee_window::<true>(scene, hit, n, thr * albedo, c, le, u, opts, shadows, w)
+    nee_window::<true, TREE>(scene, hit, n, thr * albedo, c, le, u, opts, shadows, w)
 }
 
 /// [`direct`] with the light's squared radius and radiance given; `f` is
 /// the throughput times the albedo.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn nee<const MANY: bool>(
+fn nee<const MANY: bool, const TREE: bool>(
     scene: &SceneView<'_>,
     hit: &Hit,
     n: Vec3,
@@ -787,9 +801,9 @@ fn nee<const MANY: bool>(
     let shadow = hit.spawn_on(n, ls.dir);
     let target = ObjectId::sphere(c.sphere);
     let blocked = if lists && MANY {
-        scene.occluded_outlined(&shadow, ls.dist, hit.object, target)
+        scene.occluded_outlined_in::<TREE>(&shadow, ls.dist, hit.object, target)
     } else if lists {
-        scene.occluded(&shadow, ls.dist, hit.object, target)
+        scene.occluded_in::<TREE>(&shadow, ls.dist, hit.object, target)
     } else {
         scene.occluded_by_any(&shadow, ls.dist, hit.object, target)
     };
@@ -815,7 +829,7 @@ fn nee<const MANY: bool>(
 /// `a = p_bsdf / p_light = (cos/π) · (A |n·ω| / |y − x|²) / p_sel`.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn nee_window<const MANY: bool>(
+fn nee_window<const MANY: bool, const TREE: bool>(
     scene: &SceneView<'_>,
     hit: &Hit,
     n: Vec3,
@@ -847,7 +861,7 @@ fn nee_window<const MANY: bool>(
     let shadow = hit.spawn_on(n, dir);
     let target = ObjectId::sphere(c.sphere);
     let blocked = if lists {
-        scene.occluded_outlined(&shadow, dist, hit.object, target)
+        scene.occluded_outlined_in::<TREE>(&shadow, dist, hit.object, target)
     } else {
         scene.occluded_by_any(&shadow, dist, hit.object, target)
     };

@@ -202,9 +202,22 @@ impl<'a> SceneView<'a> {
     /// choosing the list, so that its code is inlined once.
     #[inline(always)]
     pub fn closest_hit_among(&self, ray: &Ray, from: ObjectId, spheres: &[Listed]) -> Option<Hit> {
+        self.closest_hit_in::<true>(ray, from, spheres)
+    }
+
+    /// [`SceneView::closest_hit_among`] compiled with the tree's query
+    /// (`TREE`, used when the view has a tree) or without it: the
+    /// integrator's loop for a scene without a tree tests nothing about it.
+    #[inline(always)]
+    pub(crate) fn closest_hit_in<const TREE: bool>(
+        &self,
+        ray: &Ray,
+        from: ObjectId,
+        spheres: &[Listed],
+    ) -> Option<Hit> {
         // the tree's query is a call of its own, so that the inlined list
-        // query of small scenes stays what it was (one test more a ray)
-        if let Some(tree) = self.tree() {
+        // query stays what it is without a tree
+        if TREE && let Some(tree) = self.tree() {
             return self.closest_hit_tree(ray, from, tree);
         }
         nearest(
@@ -284,7 +297,20 @@ impl<'a> SceneView<'a> {
     /// reachable light are tested.
     #[inline(always)]
     pub fn occluded(&self, ray: &Ray, t_max: f32, from: ObjectId, target: ObjectId) -> bool {
-        if let Some(tree) = self.tree() {
+        self.occluded_in::<true>(ray, t_max, from, target)
+    }
+
+    /// [`SceneView::occluded`] compiled with the tree's query (`TREE`) or
+    /// without it (see [`SceneView::closest_hit_in`]).
+    #[inline(always)]
+    pub(crate) fn occluded_in<const TREE: bool>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        from: ObjectId,
+        target: ObjectId,
+    ) -> bool {
+        if TREE && let Some(tree) = self.tree() {
             return self.occluded_tree(ray, t_max, from, target, tree);
         }
         blocked(
@@ -332,7 +358,20 @@ impl<'a> SceneView<'a> {
         from: ObjectId,
         target: ObjectId,
     ) -> bool {
-        self.occluded(ray, t_max, from, target)
+        self.occluded_in::<true>(ray, t_max, from, target)
+    }
+
+    /// [`SceneView::occluded_outlined`] compiled with the tree's query
+    /// (`TREE`) or without it (see [`SceneView::closest_hit_in`]).
+    #[inline(never)]
+    pub(crate) fn occluded_outlined_in<const TREE: bool>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        from: ObjectId,
+        target: ObjectId,
+    ) -> bool {
+        self.occluded_in::<TREE>(ray, t_max, from, target)
     }
 
     /// [`SceneView::occluded`] testing every object (no analysis). Not
