@@ -57,11 +57,13 @@ use core::fmt::Write;
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use cortex_m::asm;
-use cortex_m_rt::entry;
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::debug;
 use micropt::budget::{Summary, TileAccum};
 use micropt::multicore::{
-    AtomicQueue, Pass, SharedError, SharedFramebuffer, WorkQueue, render_shared, wait_all,
+    AtomicQueue, DealtQueue, Pass, SharedError, SharedFramebuffer, WorkQueue, render_shared,
+    wait_all,
 };
 use micropt::{AdaptiveOptions, Budget, Options, Renderer, Scene};
 
@@ -86,7 +88,7 @@ type FirmwareScene = Scene<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>;
 /// The image, drawn into by both cores.
 static FRAMEBUFFER: SharedFramebuffer<{ WIDTH * HEIGHT }> =
     SharedFramebuffer::new(WIDTH as u32, HEIGHT as u32);
-/// The tiles of both passes and the cores that have finished each.
+/// The cores that have finished each pass.
 static QUEUE: AtomicQueue = AtomicQueue::new(CORES);
 /// The renderer, from core 0 to core 1.
 static RENDERER: Handoff<Renderer<'static>> = Handoff::new();
@@ -103,6 +105,18 @@ const INITSVTOR1: *mut u32 = (SYSCTL + 0x114) as *mut u32;
 const CPUWAIT: *mut u32 = (SYSCTL + 0x118) as *mut u32;
 /// The Coprocessor Access Control Register (of the core that accesses it).
 const CPACR: *mut u32 = 0xe000_ed88 as *mut u32;
+
+/// Core 0's SysTick period in core clock cycles: 1 ms at QEMU's 20 MHz
+/// (with `-icount shift=0`, a million instructions). Its exception does
+/// nothing; it is there because QEMU, running the vCPUs one at a time under
+/// `-icount`, switches vCPU at timer deadlines: without a timer one core
+/// would run for a whole pass before the other got a turn. With it the
+/// cores take turns of half a period (half a million instructions, a small
+/// part of a tile), as if they ran side by side.
+const SLICE_CYCLES: u32 = 20_000;
+
+#[exception]
+fn SysTick() {}
 
 /// Core 1's stack, in words.
 const CORE1_STACK_WORDS: usize = 4096;
@@ -187,17 +201,23 @@ impl<T> Handoff<T> {
     }
 }
 
-/// One core's view of the shared queue: waits with `wfe`, wakes the other
-/// core with `sev` when it finishes a pass, and marks for the
+/// One core's queue: the tiles dealt out in turn (`DealtQueue`: core 0 the
+/// even tiles, core 1 the odd ones), so that each core's instruction count
+/// is its own share of the work and not a product of how QEMU, which runs
+/// one vCPU at a time under `-icount`, hands out turns (a shared counter,
+/// `AtomicQueue`, gives the same image). It waits with `wfe`, wakes the
+/// other core with `sev` when it finishes a pass, and marks for the
 /// instruction-count plugin the end of its own part of each pass and the
 /// moment it sees every core done.
 struct CoreQueue {
+    tiles: DealtQueue<'static>,
     seen: [Cell<bool>; 2],
 }
 
 impl CoreQueue {
-    const fn new() -> Self {
+    fn new(core: usize) -> Self {
         Self {
+            tiles: DealtQueue::new(&QUEUE, core),
             seen: [Cell::new(false), Cell::new(false)],
         }
     }
@@ -205,18 +225,18 @@ impl CoreQueue {
 
 impl WorkQueue for CoreQueue {
     fn take(&self, pass: Pass) -> usize {
-        QUEUE.take(pass)
+        self.tiles.take(pass)
     }
 
     fn done(&self, pass: Pass) {
         mark(); // this core's tiles of the pass done
-        QUEUE.done(pass);
+        self.tiles.done(pass);
         asm::dsb();
         asm::sev();
     }
 
     fn all_done(&self, pass: Pass) -> bool {
-        let all = QUEUE.all_done(pass);
+        let all = self.tiles.all_done(pass);
         let seen = &self.seen[usize::from(pass == Pass::Refine)];
         if all && !seen.replace(true) {
             mark(); // every core's tiles of the pass done
@@ -292,12 +312,20 @@ fn run(scene_slot: &'static mut FirmwareScene, acc: &'static mut TileAccum) -> R
             ..Options::default()
         });
     RENDERER.put(renderer);
+    if let Some(p) = cortex_m::Peripherals::take() {
+        let mut syst = p.SYST;
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(SLICE_CYCLES - 1);
+        syst.clear_current();
+        syst.enable_interrupt();
+        syst.enable_counter();
+    }
     if CORES > 1 {
         start_core1();
     }
     mark(); // renderer set up, core 1 released: core 0's render begins
 
-    let queue = CoreQueue::new();
+    let queue = CoreQueue::new(0);
     let mine = render_shared(
         &renderer,
         config::BUDGET,
@@ -374,7 +402,7 @@ extern "C" fn core1_reset() -> ! {
 #[inline(never)]
 fn core1_main() -> ! {
     mark(); // core 1 started: its render begins
-    let queue = CoreQueue::new();
+    let queue = CoreQueue::new(1);
     let renderer = loop {
         if let Some(r) = RENDERER.get() {
             break r;

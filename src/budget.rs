@@ -512,7 +512,10 @@ pub fn budget_samples(budget: &Budget, width: u32, height: u32) -> Option<u64> {
     let most = pixels.saturating_mul(u64::from(MAX_SPP));
     match *budget {
         Budget::Spp(s) => Some(pixels.saturating_mul(u64::from(s.clamp(1, MAX_SPP)))),
-        Budget::Paths(p) => Some(p.clamp(pixels, most)),
+        // max then min, not clamp: clamp's panic on min > max (impossible
+        // here: most = pixels · MAX_SPP) would stay in a firmware that
+        // cannot prove it
+        Budget::Paths(p) => Some(p.max(pixels).min(most)),
         Budget::Deadline(_) => None,
     }
 }

@@ -24,6 +24,7 @@
 //! Only sample budgets are shared: a [`Budget::Deadline`] is refused
 //! ([`SharedError::Deadline`]).
 
+use core::cell::Cell;
 use core::sync::atomic::{AtomicU16, AtomicUsize, Ordering};
 
 use embedded_graphics::Pixel;
@@ -110,6 +111,50 @@ impl WorkQueue for AtomicQueue {
 
     fn all_done(&self, pass: Pass) -> bool {
         self.done[pass.index()].load(Ordering::Acquire) >= self.cores
+    }
+}
+
+/// One core's [`WorkQueue`] that deals each pass's tiles out in turn: core
+/// `k` of `n` takes tiles `k, k + n, k + 2n, …`, whatever the other cores
+/// do. A fixed split: each core's work does not depend on the cores' speeds
+/// (nor on how an emulator schedules them), at the price of the balance a
+/// shared counter gives when tiles cost more in one part of the image. The
+/// cores finish the passes through a shared [`AtomicQueue`] (its counters
+/// of taken tiles are not used).
+#[derive(Debug)]
+pub struct DealtQueue<'a> {
+    shared: &'a AtomicQueue,
+    core: usize,
+    next: [Cell<usize>; 2],
+}
+
+impl<'a> DealtQueue<'a> {
+    /// Core `core` (`0..shared`'s cores) of the cores that share `shared`.
+    pub fn new(shared: &'a AtomicQueue, core: usize) -> Self {
+        Self {
+            shared,
+            core,
+            next: [Cell::new(0), Cell::new(0)],
+        }
+    }
+}
+
+impl WorkQueue for DealtQueue<'_> {
+    fn take(&self, pass: Pass) -> usize {
+        let k = &self.next[pass.index()];
+        let turn = k.get();
+        k.set(turn.saturating_add(1));
+        // past the last tile (the core number too large) means no tile
+        turn.saturating_mul(self.shared.cores)
+            .saturating_add(self.core)
+    }
+
+    fn done(&self, pass: Pass) {
+        self.shared.done(pass);
+    }
+
+    fn all_done(&self, pass: Pass) -> bool {
+        self.shared.all_done(pass)
     }
 }
 
@@ -301,6 +346,21 @@ mod tests {
         let one = AtomicQueue::new(0);
         one.done(Pass::Refine);
         assert!(one.all_done(Pass::Refine));
+    }
+
+    #[test]
+    fn dealt_queue_deals_tiles_in_turn_and_shares_the_barrier() {
+        let shared = AtomicQueue::new(3);
+        let cores = [0, 1, 2].map(|k| DealtQueue::new(&shared, k));
+        let first: [[usize; 3]; 3] =
+            core::array::from_fn(|k| core::array::from_fn(|_| cores[k].take(Pass::Preview)));
+        assert_eq!(first, [[0, 3, 6], [1, 4, 7], [2, 5, 8]]);
+        assert_eq!(cores[1].take(Pass::Refine), 1, "each pass its own turns");
+        for (k, c) in cores.iter().enumerate() {
+            assert!(!c.all_done(Pass::Preview), "core {k}");
+            c.done(Pass::Preview);
+        }
+        assert!(cores.iter().all(|c| c.all_done(Pass::Preview)));
     }
 
     #[test]
