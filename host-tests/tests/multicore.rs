@@ -5,9 +5,11 @@
 use embedded_graphics::framebuffer::{Framebuffer, buffer_size};
 use embedded_graphics::pixelcolor::Rgb565;
 use embedded_graphics::pixelcolor::raw::{BigEndian, RawU16};
-use micropt::budget::{Clock, Summary, TileAccum, render_budget};
+use micropt::budget::{Clock, Summary, TileAccum, budget_samples, render_budget, tile_share};
+use micropt::film::{tile_at, tile_count};
 use micropt::multicore::{
-    AtomicQueue, Pass, SharedError, SharedFramebuffer, WorkQueue, render_shared, wait_all,
+    AtomicQueue, DealtQueue, Pass, SharedError, SharedFramebuffer, WorkQueue, render_shared,
+    wait_all,
 };
 use micropt::{AdaptiveOptions, Budget, Renderer, Scene};
 use micropt_host::reference::scenes_dir;
@@ -29,10 +31,12 @@ impl Clock for Still {
     }
 }
 
-/// The atomic queue, yielding the thread while waiting; `slow` makes one
-/// core sleep before each take, so that the other takes most tiles.
+/// A queue on a thread, yielding the thread while waiting: the shared
+/// counter, or the tiles dealt out in turn; `slow` makes one core sleep
+/// before each take, so that with the counter the other takes most tiles.
 struct Threads<'a> {
     queue: &'a AtomicQueue,
+    dealt: Option<DealtQueue<'a>>,
     slow: bool,
 }
 
@@ -41,7 +45,10 @@ impl WorkQueue for Threads<'_> {
         if self.slow {
             std::thread::sleep(std::time::Duration::from_millis(2));
         }
-        self.queue.take(pass)
+        match &self.dealt {
+            Some(d) => d.take(pass),
+            None => self.queue.take(pass),
+        }
     }
     fn done(&self, pass: Pass) {
         self.queue.done(pass)
@@ -54,14 +61,22 @@ impl WorkQueue for Threads<'_> {
     }
 }
 
+/// How the cores of a test share the tiles.
+#[derive(Clone, Copy, Debug)]
+enum Split {
+    /// The shared counter (`AtomicQueue`).
+    Counter,
+    /// Dealt out in turn (`DealtQueue`).
+    Dealt,
+}
+
 /// Renders on `cores` threads (core 0 slow if `slow`); the image's bytes
 /// and the summaries of the cores.
 fn shared(
     r: &Renderer<'_>,
     budget: Budget,
     opts: &AdaptiveOptions,
-    cores: usize,
-    slow: bool,
+    (cores, split, slow): (usize, Split, bool),
 ) -> (Vec<u8>, Vec<Summary>) {
     let fb = SharedFramebuffer::<{ W * H }>::new(W as u32, H as u32);
     let queue = AtomicQueue::new(cores);
@@ -72,6 +87,7 @@ fn shared(
                 s.spawn(move || {
                     let q = Threads {
                         queue,
+                        dealt: matches!(split, Split::Dealt).then(|| DealtQueue::new(queue, c)),
                         slow: slow && c == 0,
                     };
                     let mut acc = TileAccum::new();
@@ -119,17 +135,46 @@ fn cores_on_threads_draw_the_single_core_image_bit_for_bit() {
             1.0,
         )
         .unwrap();
-        for (cores, slow) in [(1, false), (2, false), (2, true), (3, false)] {
-            let (bytes, sums) = shared(&r, budget, &opts, cores, slow);
-            let what = format!("{name} {budget:?} adaptive {adaptive}: {cores} cores, slow {slow}");
+        for run in [
+            (1, Split::Counter, false),
+            (2, Split::Counter, false),
+            (2, Split::Counter, true),
+            (3, Split::Counter, false),
+            (2, Split::Dealt, true),
+            (3, Split::Dealt, false),
+        ] {
+            let (cores, split, slow) = run;
+            let (bytes, sums) = shared(&r, budget, &opts, run);
+            let what = format!(
+                "{name} {budget:?} adaptive {adaptive}: {cores} cores, {split:?}, slow {slow}"
+            );
             assert_eq!(bytes.as_slice(), fb.data(), "{what}");
             let samples: u64 = sums.iter().map(|s| s.samples).sum();
             let paths: u64 = sums.iter().map(|s| s.stats.paths).sum();
             assert_eq!((samples, paths), (one.samples, one.stats.paths), "{what}");
-            if slow {
+            match (split, slow) {
                 // the other core took tiles while the slow one slept: the
                 // split was not the single core's
-                assert!(sums[1].stats.paths > sums[0].stats.paths, "{what}");
+                (Split::Counter, true) => {
+                    assert!(sums[1].stats.paths > sums[0].stats.paths, "{what}")
+                }
+                // dealt out: each core traced its own tiles' samples (the
+                // preview and the tile's share), whatever the timing
+                (Split::Dealt, _) => {
+                    let total = budget_samples(&budget, W as u32, H as u32).unwrap();
+                    let extra = total - (W * H) as u64;
+                    for (k, sum) in sums.iter().enumerate() {
+                        let own: u64 = (k..tile_count(W as u32, H as u32))
+                            .step_by(cores)
+                            .map(|i| {
+                                let t = tile_at(W as u32, H as u32, i).unwrap();
+                                t.len() as u64 + tile_share(W as u32, H as u32, extra, i)
+                            })
+                            .sum();
+                        assert_eq!(sum.samples, own, "{what}: core {k}");
+                    }
+                }
+                _ => {}
             }
         }
     }
