@@ -65,7 +65,7 @@ use micropt::multicore::{
     AtomicQueue, DealtQueue, Pass, SharedError, SharedFramebuffer, WorkQueue, render_shared,
     wait_all,
 };
-use micropt::{AdaptiveOptions, Budget, Options, Renderer, Scene};
+use micropt::{AdaptiveOptions, Options, Renderer, Scene};
 
 #[path = "board/qemu.rs"]
 mod qemu;
@@ -474,21 +474,17 @@ fn dump() -> Result<(), Error> {
 fn summary(core0: &Summary, core1: Option<&Summary>) {
     let mut out = HostOut::stdout();
     let o = &mut out;
-    let _ = o.write_str("micropt dualcore: ");
-    let _ = o.write_str(config::SCENE_NAME);
-    let _ = write!(o, " {WIDTH}x{HEIGHT} ");
-    let _ = match config::BUDGET {
-        Budget::Deadline(us) => write!(o, "deadline {} ms", us / 1000),
-        Budget::Paths(p) => write!(o, "paths {p}"),
-        Budget::Spp(n) => write!(o, "spp {n}"),
-    };
-    let _ = o.write_str(if config::ADAPTIVE {
-        " adaptive skip "
-    } else {
-        " uniform skip "
-    });
-    let _ = o.write_str(config::SKIP_LABEL);
-    let _ = write!(o, " seed {SEED}, {CORES} cores:");
+    qemu::write_run(
+        o,
+        "micropt dualcore",
+        config::SCENE_NAME,
+        (WIDTH, HEIGHT),
+        config::BUDGET,
+        config::ADAPTIVE,
+        config::SKIP_LABEL,
+        SEED,
+    );
+    let _ = write!(o, ", {CORES} cores:");
     let mut total = *core0;
     for (k, s) in core::iter::once(core0).chain(core1).enumerate() {
         let _ = write!(
@@ -536,24 +532,21 @@ fn report(e: &Error) {
             writeln!(o, ": {p}")
         }
         Error::Camera => o.write_str("invalid camera for the image size\n"),
-        Error::SqrtMismatch(m) => writeln!(
-            o,
-            "vsqrt.f32 differs from libm::sqrtf: sqrt({:#010x}) = {:#010x}, libm {:#010x}",
-            m.input, m.fpu, m.libm
-        ),
+        Error::SqrtMismatch(m) => {
+            m.write(o);
+            Ok(())
+        }
         Error::Deadline => {
             o.write_str("a deadline budget is not shared between cores (use a sample budget)\n")
         }
         Error::Core1Fault => o.write_str("core 1 took a fault\n"),
         Error::Open => {
-            let _ = o.write_str("cannot open host file ");
-            let _ = o.write_str(output_name());
-            o.write_str(" for writing (is semihosting enabled?)\n")
+            qemu::write_file_error(o, output_name(), true);
+            Ok(())
         }
         Error::Write => {
-            let _ = o.write_str("writing ");
-            let _ = o.write_str(output_name());
-            o.write_str(" failed\n")
+            qemu::write_file_error(o, output_name(), false);
+            Ok(())
         }
     };
 }

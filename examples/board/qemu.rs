@@ -164,3 +164,63 @@ pub fn check_fpu_sqrt() -> Result<(), SqrtMismatch> {
     }
     Ok(())
 }
+
+/// Writes what a firmware renders, for its summary line: `NAME: SCENE WxH
+/// BUDGET adaptive|uniform skip SKIP seed SEED`. Strings go out with
+/// `write_str`, numbers with `{}`: a `{}` of a `&str` would link the
+/// formatter's padding code into the flash (docs/firmware.md).
+#[allow(clippy::too_many_arguments)]
+pub fn write_run(
+    o: &mut impl Write,
+    name: &str,
+    scene: &str,
+    (width, height): (usize, usize),
+    budget: micropt::Budget,
+    adaptive: bool,
+    skip: &str,
+    seed: u64,
+) {
+    let _ = o.write_str(name);
+    let _ = o.write_str(": ");
+    let _ = o.write_str(scene);
+    let _ = write!(o, " {width}x{height} ");
+    let _ = match budget {
+        micropt::Budget::Deadline(us) => write!(o, "deadline {} ms", us / 1000),
+        micropt::Budget::Paths(p) => write!(o, "paths {p}"),
+        micropt::Budget::Spp(n) => write!(o, "spp {n}"),
+    };
+    let _ = o.write_str(if adaptive {
+        " adaptive skip "
+    } else {
+        " uniform skip "
+    });
+    let _ = o.write_str(skip);
+    let _ = write!(o, " seed {seed}");
+}
+
+/// What went wrong with the host file `file` (opening it if `open`, else
+/// writing it), for a firmware's error report.
+pub fn write_file_error(o: &mut impl Write, file: &str, open: bool) {
+    let _ = o.write_str(if open {
+        "cannot open host file "
+    } else {
+        "writing "
+    });
+    let _ = o.write_str(file);
+    let _ = o.write_str(if open {
+        " for writing (is semihosting enabled?)\n"
+    } else {
+        " failed\n"
+    });
+}
+
+impl SqrtMismatch {
+    /// The mismatch, for a firmware's error report.
+    pub fn write(&self, o: &mut impl Write) {
+        let _ = writeln!(
+            o,
+            "vsqrt.f32 differs from libm::sqrtf: sqrt({:#010x}) = {:#010x}, libm {:#010x}",
+            self.input, self.fpu, self.libm
+        );
+    }
+}
