@@ -4,7 +4,10 @@
 //! only — the `firmware` or `board-st7789` feature on a bare-metal target
 //! (`target_os = "none"`) — it
 //!
-//! * copies `memory.x` (the STM32F405 memory map) into `OUT_DIR` and puts that
+//! * copies the memory map (`examples/board/stm32f405.x`; `an521.x` there
+//!   for the `firmware-an521` feature) into `OUT_DIR` as `memory.x` (which
+//!   cortex-m-rt's `link.x` includes; no `memory.x` in the package root,
+//!   where the linker, run from there, would find it first) and puts that
 //!   directory on the linker path (in a workspace the linker runs from the
 //!   root, so a relative path would not do), and passes `-Tlink.x` (from
 //!   cortex-m-rt) to the examples' links only, so that the core and the
@@ -21,6 +24,7 @@
 //!   | `MICROPT_FW_SPP`    | `16`                      |
 //!   | `MICROPT_FW_SEED`   | `0`                       |
 //!   | `MICROPT_FW_OUT`    | `firmware.rgb565` (host path, relative to QEMU's working directory) |
+//!   | `MICROPT_FW_CORES`  | `2` (cores sharing the render: `examples/dualcore.rs` only) |
 //!
 //!   The scene's fixed capacities (spheres, planes, materials) are the counts
 //!   of those statements in the file, so the firmware's static RAM is what
@@ -44,8 +48,14 @@ fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     let root = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it"));
 
-    println!("cargo:rerun-if-changed=memory.x");
-    fs::copy(root.join("memory.x"), out.join("memory.x")).expect("copy memory.x to OUT_DIR");
+    // the STM32F405's map, or the AN521's for the dual-core firmware
+    let memory = if env::var_os("CARGO_FEATURE_FIRMWARE_AN521").is_some() {
+        "examples/board/an521.x"
+    } else {
+        "examples/board/stm32f405.x"
+    };
+    println!("cargo:rerun-if-changed={memory}");
+    fs::copy(root.join(memory), out.join("memory.x")).expect("copy the memory map to OUT_DIR");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-examples=-Tlink.x");
 
@@ -192,6 +202,11 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
         Some(ms) => format!("micropt::Budget::Deadline({})", ms * 1000),
         None => "micropt::Budget::Spp(SPP)".to_string(),
     };
+    let cores: usize = match var("MICROPT_FW_CORES").as_deref().map(str::trim) {
+        None | Some("2") => 2,
+        Some("1") => 1,
+        Some(s) => return Err(format!("MICROPT_FW_CORES={s:?} is not 1 or 2")),
+    };
     let output = var("MICROPT_FW_OUT").unwrap_or_else(|| "firmware.rgb565".into());
     if output.contains('\0') {
         return Err("MICROPT_FW_OUT contains a NUL byte".into());
@@ -233,7 +248,10 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
          /// The integrator's skip switches.\n\
          pub const SKIP: micropt::Skip = micropt::Skip {{ {skip_fields}}};\n\
          /// The skip switches, for the summary line.\n\
-         pub const SKIP_LABEL: &str = {skip_label:?};\n",
+         pub const SKIP_LABEL: &str = {skip_label:?};\n\
+         /// Cores that share the render (the dual-core firmware).\n\
+         #[allow(dead_code)] // only the dual-core firmware reads it\n\
+         pub const CORES: usize = {cores};\n",
         output.escape_default(),
         spheres.max(1),
         planes.max(1),

@@ -41,12 +41,16 @@ use panic_semihosting as _;
 
 use core::fmt::Write;
 use cortex_m_rt::entry;
-use cortex_m_semihosting::{debug, hio, nr, syscall};
+use cortex_m_semihosting::debug;
 use embedded_graphics::framebuffer::{Framebuffer, buffer_size};
 use embedded_graphics::pixelcolor::Rgb565;
 use embedded_graphics::pixelcolor::raw::{BigEndian, RawU16};
 use micropt::budget::{Summary, TileAccum, render_budget};
-use micropt::{AdaptiveOptions, Budget, Options, Renderer, Scene, math};
+use micropt::{AdaptiveOptions, Options, Renderer, Scene};
+
+#[path = "board/qemu.rs"]
+mod qemu;
+use qemu::{HostFile, HostOut, mark};
 
 #[path = "board/systick.rs"]
 mod systick;
@@ -81,11 +85,7 @@ enum Error {
     Scene(micropt::SceneError),
     Camera,
     Peripherals,
-    SqrtMismatch {
-        input: u32,
-        fpu: u32,
-        libm: u32,
-    },
+    SqrtMismatch(qemu::SqrtMismatch),
     Open,
     Write,
 }
@@ -167,7 +167,7 @@ fn run(
     acc: &'static mut TileAccum,
     scene_slot: &'static mut FirmwareScene,
 ) -> Result<(), Error> {
-    check_fpu_sqrt()?;
+    qemu::check_fpu_sqrt().map_err(Error::SqrtMismatch)?;
     let mut clock = match cortex_m::Peripherals::take() {
         Some(p) => SysTickClock::start(p.SYST, CORE_HZ),
         None => return Err(Error::Peripherals),
@@ -205,7 +205,7 @@ fn run(
     dump(fb.data())?;
     mark(); // dump written
 
-    summary(&sum, fb.data().len(), stack_high_water());
+    summary(&sum, fb.data().len(), qemu::main_stack_high_water());
     Ok(())
 }
 
@@ -217,23 +217,19 @@ fn run(
 fn summary(sum: &Summary, bytes: usize, stack: usize) {
     let mut out = HostOut::stdout();
     let o = &mut out;
-    let _ = o.write_str("micropt firmware: ");
-    let _ = o.write_str(config::SCENE_NAME);
-    let _ = write!(o, " {WIDTH}x{HEIGHT} ");
-    let _ = match config::BUDGET {
-        Budget::Deadline(us) => write!(o, "deadline {} ms", us / 1000),
-        Budget::Paths(p) => write!(o, "paths {p}"),
-        Budget::Spp(n) => write!(o, "spp {n}"),
-    };
-    let _ = o.write_str(if config::ADAPTIVE {
-        " adaptive skip "
-    } else {
-        " uniform skip "
-    });
-    let _ = o.write_str(config::SKIP_LABEL);
+    qemu::write_run(
+        o,
+        "micropt firmware",
+        config::SCENE_NAME,
+        (WIDTH, HEIGHT),
+        config::BUDGET,
+        config::ADAPTIVE,
+        config::SKIP_LABEL,
+        SEED,
+    );
     let _ = write!(
         o,
-        " seed {SEED}: {} samples, {} paths, {} bounce rays, {} shadow rays, {} non-finite; ",
+        ": {} samples, {} paths, {} bounce rays, {} shadow rays, {} non-finite; ",
         sum.samples,
         sum.stats.paths,
         sum.stats.bounce_rays,
@@ -260,131 +256,12 @@ fn output_name() -> &'static str {
 /// Writes `bytes` to the host file `config::OUTPUT` (semihosting
 /// OPEN "wb" / WRITE / CLOSE).
 fn dump(bytes: &[u8]) -> Result<(), Error> {
-    let name = config::OUTPUT;
-    // SAFETY: OPEN takes a NUL-terminated name, a mode and the name's length
-    // without the NUL; `name` ends with the NUL build.rs appends and lives
-    // for the whole call.
-    let fd = unsafe {
-        syscall!(
-            OPEN,
-            name.as_ptr(),
-            nr::open::W_TRUNC_BINARY,
-            name.len().saturating_sub(1)
-        )
-    };
-    if fd as isize == -1 {
-        return Err(Error::Open);
-    }
-    // SAFETY: WRITE reads `len` bytes from the pointer, which `bytes` owns;
-    // it returns the number of bytes *not* written.
-    let left = unsafe { syscall!(WRITE, fd, bytes.as_ptr(), bytes.len()) };
-    // SAFETY: CLOSE takes the handle OPEN returned.
-    let closed = unsafe { syscall!(CLOSE, fd) };
-    if left != 0 || closed != 0 {
+    let mut file = HostFile::create(config::OUTPUT).ok_or(Error::Open)?;
+    let written = file.write(bytes);
+    if !(file.close() && written) {
         return Err(Error::Write);
     }
     Ok(())
-}
-
-/// The FPU square root (`math::sqrt` on this target) against libm's software
-/// `sqrtf`, bit for bit: zeros, subnormals, powers of two, perfect squares,
-/// huge values, infinity, negative numbers and a pseudo-random sweep over all
-/// positive floats. NaN results must both be NaN (their payloads may differ).
-#[inline(never)]
-fn check_fpu_sqrt() -> Result<(), Error> {
-    let specials = [
-        0x0000_0000u32, // +0
-        0x8000_0000,    // -0
-        0x0000_0001,    // smallest subnormal
-        0x007f_ffff,    // largest subnormal
-        0x0080_0000,    // smallest normal
-        0x3f80_0000,    // 1
-        0x4000_0000,    // 2
-        0x4080_0000,    // 4
-        0x4110_0000,    // 9
-        0x3f80_0001,    // 1 + ulp
-        0x3f7f_ffff,    // 1 - ulp
-        0x7f7f_ffff,    // largest finite
-        0x7f80_0000,    // +inf
-        0xbf80_0000,    // -1
-        0x7fc0_0000,    // NaN
-    ];
-    let mut state = 0x2545_f491u32;
-    let random = (0..4096).map(move |_| {
-        // xorshift32, restricted to non-negative floats
-        state ^= state << 13;
-        state ^= state >> 17;
-        state ^= state << 5;
-        state & 0x7fff_ffff
-    });
-    for input in specials.into_iter().chain(random) {
-        let x = f32::from_bits(input);
-        let (fpu, soft) = (math::sqrt(x), libm::sqrtf(x));
-        let same = fpu.to_bits() == soft.to_bits() || (fpu.is_nan() && soft.is_nan());
-        if !same {
-            return Err(Error::SqrtMismatch {
-                input,
-                fpu: fpu.to_bits(),
-                libm: soft.to_bits(),
-            });
-        }
-    }
-    Ok(())
-}
-
-/// Bytes of stack ever used: cortex-m-rt's `paint-stack` fills the stack with
-/// `0xcccc_cccc` before `main`; the lowest overwritten word is the high-water
-/// mark.
-fn stack_high_water() -> usize {
-    unsafe extern "C" {
-        static _stack_start: u32;
-        static _stack_end: u32;
-    }
-    let top = (&raw const _stack_start) as usize;
-    let mut p = (&raw const _stack_end) as usize;
-    while p < top {
-        // SAFETY: every word between cortex-m-rt's `_stack_end` and
-        // `_stack_start` is RAM that belongs to the stack; reading it is
-        // always defined (volatile, so the compiler cannot assume its value).
-        let word = unsafe { core::ptr::read_volatile(p as *const u32) };
-        if word != 0xcccc_cccc {
-            break;
-        }
-        p += 4;
-    }
-    top - p
-}
-
-/// Marks a phase boundary for `tools/qemu-icount`: a `yield` hint, which the
-/// compiler never emits by itself, and which the plugin counts up to. A no-op
-/// for the CPU.
-#[inline(always)]
-fn mark() {
-    // SAFETY: `yield` is a hint instruction with no effect on registers or
-    // memory on a single-core Cortex-M.
-    unsafe { core::arch::asm!("yield", options(nomem, nostack, preserves_flags)) };
-}
-
-/// The host's stdout or stderr; output errors are ignored (there is nowhere
-/// else to report them).
-struct HostOut(Option<hio::HostStream>);
-
-impl HostOut {
-    fn stdout() -> Self {
-        Self(hio::hstdout().ok())
-    }
-    fn stderr() -> Self {
-        Self(hio::hstderr().ok())
-    }
-}
-
-impl Write for HostOut {
-    fn write_str(&mut self, s: &str) -> core::fmt::Result {
-        if let Some(h) = self.0.as_mut() {
-            let _ = h.write_all(s.as_bytes());
-        }
-        Ok(())
-    }
 }
 
 fn report(e: &Error) {
@@ -402,19 +279,17 @@ fn report(e: &Error) {
         Error::Scene(e) => writeln!(o, "the scene built in code: {e}"),
         Error::Camera => o.write_str("invalid camera for the image size\n"),
         Error::Peripherals => o.write_str("core peripherals already taken\n"),
-        Error::SqrtMismatch { input, fpu, libm } => writeln!(
-            o,
-            "vsqrt.f32 differs from libm::sqrtf: sqrt({input:#010x}) = {fpu:#010x}, libm {libm:#010x}"
-        ),
+        Error::SqrtMismatch(m) => {
+            m.write(o);
+            Ok(())
+        }
         Error::Open => {
-            let _ = o.write_str("cannot open host file ");
-            let _ = o.write_str(output_name());
-            o.write_str(" for writing (is semihosting enabled?)\n")
+            qemu::write_file_error(o, output_name(), true);
+            Ok(())
         }
         Error::Write => {
-            let _ = o.write_str("writing ");
-            let _ = o.write_str(output_name());
-            o.write_str(" failed\n")
+            qemu::write_file_error(o, output_name(), false);
+            Ok(())
         }
     };
 }

@@ -473,6 +473,37 @@ pub fn allocate_tiles(width: u32, height: u32, total: u64, give: impl FnMut(usiz
     split(tile_count(width, height), total, 0.0, sizes, give);
 }
 
+/// The share of tile `i` in [`allocate_tiles`]`(width, height, total, ..)`,
+/// without the walk over the tiles before it (0 for a tile past the last):
+/// an executor that hands out tiles in any order computes each one's share
+/// on its own.
+///
+/// The same bits: `split`'s running f32 sum of tile sizes is, before the
+/// last tile, a sum of even integers (every tile but the corner one has a
+/// side of [`TILE`] pixels) below 2²⁵ (`scene::MAX_PIXELS`), so exact, and
+/// the last addition is one rounding of the exact total, as is the
+/// conversion of that total here.
+pub fn tile_share(width: u32, height: u32, total: u64, i: usize) -> u64 {
+    let n = tile_count(width, height);
+    let tx = width.div_ceil(TILE) as usize;
+    if i >= n || tx == 0 {
+        return 0;
+    }
+    // pixels in tiles 0..=k (row-major tiles of TILE × TILE, cut at the
+    // image's right and bottom edges)
+    let (w, h) = (u64::from(width), u64::from(height));
+    let cum = |k: usize| -> u64 {
+        let (row, col) = ((k / tx) as u64, (k % tx) as u64);
+        let top = (row * u64::from(TILE)).min(h);
+        let row_h = (h - top).min(u64::from(TILE));
+        top * w + ((col + 1) * u64::from(TILE)).min(w) * row_h
+    };
+    let pixels = (w * h) as f32;
+    let upto = |k: usize| cumulative_share(total, cum(k) as f32, pixels, k + 1 == n);
+    let before = if i == 0 { 0 } else { upto(i - 1) };
+    upto(i).saturating_sub(before)
+}
+
 /// The total number of image samples a sample budget asks for (at most
 /// [`MAX_SPP`] per pixel), or `None` for a deadline (known only as the render
 /// goes).
@@ -481,7 +512,10 @@ pub fn budget_samples(budget: &Budget, width: u32, height: u32) -> Option<u64> {
     let most = pixels.saturating_mul(u64::from(MAX_SPP));
     match *budget {
         Budget::Spp(s) => Some(pixels.saturating_mul(u64::from(s.clamp(1, MAX_SPP)))),
-        Budget::Paths(p) => Some(p.clamp(pixels, most)),
+        // max then min, not clamp: clamp's panic on min > max (impossible
+        // here: most = pixels · MAX_SPP) would stay in a firmware that
+        // cannot prove it
+        Budget::Paths(p) => Some(p.max(pixels).min(most)),
         Budget::Deadline(_) => None,
     }
 }
@@ -790,6 +824,38 @@ mod tests {
         // 20x20: tiles of 256, 64, 64, 16 pixels
         allocate_tiles(20, 20, 400, |i, s| got[i] = s);
         assert_eq!(got, [256, 64, 64, 16]);
+    }
+
+    /// `tile_share` is `allocate_tiles`' share of each tile, bit for bit:
+    /// small images with cut edge tiles, and the largest images the scene
+    /// format allows (2²⁵ pixels, where f32 sums of sizes stop being exact
+    /// for odd values) with an odd corner tile.
+    #[test]
+    fn tile_share_equals_the_walk_over_the_tiles() {
+        let sizes = [
+            (1, 1),
+            (15, 17),
+            (16, 16),
+            (20, 20),
+            (64, 64),
+            (100, 37),
+            (16_384, 2_048),
+            (16_383, 2_048),
+            (2_047, 16_383),
+        ];
+        for (w, h) in sizes {
+            let pixels = u64::from(w) * u64::from(h);
+            for total in [0, 1, 7, pixels - 1, pixels * 15, pixels * 15 + 13] {
+                let (mut tiles, mut sum) = (0usize, 0u64);
+                allocate_tiles(w, h, total, |i, s| {
+                    assert_eq!(tile_share(w, h, total, i), s, "{w}x{h}, {total}: tile {i}");
+                    tiles += 1;
+                    sum += s;
+                });
+                assert_eq!((tiles, sum), (tile_count(w, h), total), "{w}x{h}, {total}");
+                assert_eq!(tile_share(w, h, total, tiles), 0);
+            }
+        }
     }
 
     #[test]

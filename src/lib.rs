@@ -24,7 +24,9 @@
 //! Modules, one per concept: [`analysis`] (work a scene never needs), [`math`] (every float function, explicitly),
 //! [`geometry`] (vectors, rays, spheres, planes), [`camera`], [`material`],
 //! [`light`], [`sampler`], [`scene`], [`parse`], [`integrator`], [`film`],
-//! [`render`], [`budget`] (fixed budgets, progressive and adaptive).
+//! [`render`], [`budget`] (fixed budgets, progressive and adaptive),
+//! [`multicore`] (one budgeted render shared between cores; on targets with
+//! atomic read-modify-write).
 
 #![no_std]
 #![cfg_attr(
@@ -48,6 +50,8 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod math;
+#[cfg(target_has_atomic = "ptr")]
+pub mod multicore;
 #[cfg(feature = "parser")]
 pub mod parse;
 pub mod render;
