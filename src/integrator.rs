@@ -34,7 +34,7 @@
 
 use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3};
 use crate::light::{self, Window};
-use crate::material::{Bsdf, Material, Scatter};
+use crate::material::{Bsdf, Lambert, Lobe, Material, Scatter};
 use crate::math;
 use crate::sampler::SampleStream;
 use crate::scene::SceneView;
@@ -504,6 +504,131 @@ fn trace<const MANY: bool>(
             }
             break;
         };
+        // a non-delta vertex, compiled once per lobe type (static
+        // dispatch): next-event estimation and BSDF sampling by MIS
+        macro_rules! non_delta {
+            ($lobe:expr) => {{
+                let lobe = $lobe;
+                // two-sided: shade with the normal facing the incoming ray
+                let n = if ray.dir.dot(hit.normal) < 0.0 {
+                    hit.normal
+                } else {
+                    -hit.normal
+                };
+                let wo = -ray.dir;
+                let mut weight_sum = 0.0;
+                let mut light_omc = 0.0;
+                let horizon = ctx.horizon_at(hit.object);
+                if opts.strategy != Strategy::BsdfOnly && !ctx.lights.is_empty() {
+                    // drawn before the light is chosen, so that skipping a
+                    // light below the horizon never shifts the random numbers
+                    let u = if depth == 0 && opts.stratified {
+                        stream.stratified_2d(2)
+                    } else {
+                        stream.next_2d()
+                    };
+                    let f = thr * lobe.tint();
+                    if MANY {
+                        let (choice, sum) = ctx.choose_light(hit.point, n, horizon, stream);
+                        weight_sum = sum;
+                        if let Some(c) = choice {
+                            let through = match window_of(ctx.windows, c.sphere) {
+                                Some(w) => direct_window(
+                                    scene,
+                                    &hit,
+                                    n,
+                                    f,
+                                    &lobe,
+                                    wo,
+                                    &c,
+                                    u,
+                                    opts,
+                                    &mut shadows,
+                                    w,
+                                ),
+                                None => None,
+                            };
+                            l += match through {
+                                Some(e) => e,
+                                None => {
+                                    direct(scene, &hit, n, f, &lobe, wo, &c, u, opts, &mut shadows)
+                                }
+                            };
+                        }
+                    } else if let Some(one) = &ctx.one {
+                        weight_sum = 1.0;
+                        let to_c = one.center - hit.point;
+                        let d2 = to_c.length_squared();
+                        if d2 > one.radius2 && !(horizon && n.dot(to_c) < -one.radius) {
+                            let c = LightChoice {
+                                sphere: one.sphere,
+                                p_sel: 1.0,
+                                to_c,
+                                d2,
+                            };
+                            let through = match one.window {
+                                Some(w) => nee_window::<MANY, _>(
+                                    scene,
+                                    &hit,
+                                    n,
+                                    f,
+                                    &lobe,
+                                    wo,
+                                    &c,
+                                    one.le,
+                                    u,
+                                    opts,
+                                    &mut shadows,
+                                    w,
+                                ),
+                                None => None,
+                            };
+                            if let Some(e) = through {
+                                // negative: the window's pdf applies
+                                light_omc = -1.0;
+                                l += e;
+                            } else {
+                                l += nee::<MANY, _>(
+                                    scene,
+                                    &hit,
+                                    n,
+                                    f,
+                                    &lobe,
+                                    wo,
+                                    &c,
+                                    one.radius2,
+                                    one.le,
+                                    u,
+                                    opts,
+                                    &mut shadows,
+                                    &mut light_omc,
+                                );
+                            }
+                        }
+                    }
+                }
+                let u = if depth == 0 && opts.stratified {
+                    stream.stratified_2d(1)
+                } else {
+                    stream.next_2d()
+                };
+                let Some(bs) = lobe.sample(wo, n, u, opts.fast_math) else {
+                    break;
+                };
+                prev = PrevVertex {
+                    point: hit.point,
+                    normal: n,
+                    bsdf_pdf: bs.pi_pdf * math::INV_PI,
+                    weight_sum,
+                    light_omc,
+                    horizon,
+                };
+                // f · cos / pdf (the Lambertian's: its albedo, exactly)
+                thr *= bs.weight;
+                specular = false;
+                ray = hit.spawn_on(n, bs.dir);
+            }};
+        }
         let Some(mat) = scene.materials.get(hit.material as usize) else {
             break;
         };
@@ -530,110 +655,9 @@ fn trace<const MANY: bool>(
                 }
                 break;
             }
-            Scatter::Bsdf(bsdf) => {
-                // two-sided: shade with the normal facing the incoming ray
-                let n = if ray.dir.dot(hit.normal) < 0.0 {
-                    hit.normal
-                } else {
-                    -hit.normal
-                };
-                let wo = -ray.dir;
-                let mut weight_sum = 0.0;
-                let mut light_omc = 0.0;
-                let horizon = ctx.horizon_at(hit.object);
-                if opts.strategy != Strategy::BsdfOnly && !ctx.lights.is_empty() {
-                    // drawn before the light is chosen, so that skipping a
-                    // light below the horizon never shifts the random numbers
-                    let u = if depth == 0 && opts.stratified {
-                        stream.stratified_2d(2)
-                    } else {
-                        stream.next_2d()
-                    };
-                    let v = Vertex {
-                        hit: &hit,
-                        n,
-                        wo,
-                        bsdf: &bsdf,
-                        thr,
-                    };
-                    if MANY {
-                        let (choice, sum) = ctx.choose_light(hit.point, n, horizon, stream);
-                        weight_sum = sum;
-                        if let Some(c) = choice {
-                            let through = match window_of(ctx.windows, c.sphere) {
-                                Some(w) => direct_window(scene, &v, &c, u, opts, &mut shadows, w),
-                                None => None,
-                            };
-                            l += match through {
-                                Some(e) => e,
-                                None => direct(scene, &v, &c, u, opts, &mut shadows),
-                            };
-                        }
-                    } else if let Some(one) = &ctx.one {
-                        weight_sum = 1.0;
-                        let to_c = one.center - hit.point;
-                        let d2 = to_c.length_squared();
-                        if d2 > one.radius2 && !(horizon && n.dot(to_c) < -one.radius) {
-                            let c = LightChoice {
-                                sphere: one.sphere,
-                                p_sel: 1.0,
-                                to_c,
-                                d2,
-                            };
-                            let through = match one.window {
-                                Some(w) => nee_window::<MANY>(
-                                    scene,
-                                    &v,
-                                    &c,
-                                    one.le,
-                                    u,
-                                    opts,
-                                    &mut shadows,
-                                    w,
-                                ),
-                                None => None,
-                            };
-                            if let Some(e) = through {
-                                // negative: the window's pdf applies
-                                light_omc = -1.0;
-                                l += e;
-                            } else {
-                                l += nee::<MANY>(
-                                    scene,
-                                    &v,
-                                    &c,
-                                    one.radius2,
-                                    one.le,
-                                    u,
-                                    opts,
-                                    &mut shadows,
-                                    &mut light_omc,
-                                );
-                            }
-                        }
-                    }
-                }
-                let u = if depth == 0 && opts.stratified {
-                    stream.stratified_2d(1)
-                } else {
-                    stream.next_2d()
-                };
-                let Some(bs) = bsdf.sample(wo, n, u, opts.fast_math) else {
-                    break;
-                };
-                prev = PrevVertex {
-                    point: hit.point,
-                    normal: n,
-                    bsdf_pdf: bs.pi_pdf * math::INV_PI,
-                    weight_sum,
-                    light_omc,
-                    horizon,
-                };
-                // f · cos / pdf (the Lambertian's: its albedo, exactly)
-                thr *= bs.weight;
-                specular = false;
-                ray = hit.spawn_on(n, bs.dir);
-            }
+            Scatter::Bsdf(Bsdf::Lambert(albedo)) => non_delta!(Lambert(albedo)),
+            #[cfg(feature = "metal")]
+            Scatter::Bsdf(Bsdf::Ggx(m)) => non_delta!(m),
             Scatter::Delta(ds) => {
                 thr *= ds.weight;
                 rr_scale /= ds.scale;
@@ -664,18 +688,6 @@ fn trace<const MANY: bool>(
     l
 }
 
-/// A non-delta vertex as next-event estimation sees it.
-struct Vertex<'h> {
-    hit: &'h Hit,
-    /// Shading normal (facing the incoming ray).
-    n: Vec3,
-    /// Unit direction back along the incoming ray.
-    wo: Vec3,
-    bsdf: &'h Bsdf,
-    /// Path throughput up to the vertex.
-    thr: Color,
-}
-
 /// Next-event estimation toward the light that [`Ctx::choose_light`] chose
 /// (the several-lights variant), MIS-weighted.
 ///
@@ -684,11 +696,17 @@ struct Vertex<'h> {
 /// heuristic `w = 1 / (1 + a²)` is `(f cos / p_bsdf) · Le · a / (1 + a²)`:
 /// no pdf is ever divided by. For the Lambertian `f cos / p_bsdf` is its
 /// albedo and `π p_bsdf` the cosine, so with one light `a ≤ 2` and `a²`
-/// cannot overflow.
+/// cannot overflow. `f` is the throughput times the lobe's tint
+/// ([`Lobe::tint`]), `wo` the direction back along the incoming ray.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn direct(
+fn direct<B: Lobe>(
     scene: &SceneView<'_>,
-    v: &Vertex<'_>,
+    hit: &Hit,
+    n: Vec3,
+    f: Color,
+    lobe: &B,
+    wo: Vec3,
     c: &LightChoice,
     u: [f32; 2],
     opts: &Options,
@@ -704,14 +722,21 @@ fn direct(
     else {
         return Color::ZERO;
     };
-    nee::<true>(scene, v, c, s.radius2, le, u, opts, shadows, &mut 0.0)
+    nee::<true, B>(
+        scene, hit, n, f, lobe, wo, c, s.radius2, le, u, opts, shadows, &mut 0.0,
+    )
 }
 
 /// [`direct`] through the light's window (the several-lights variant).
+#[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn direct_window(
+fn direct_window<B: Lobe>(
     scene: &SceneView<'_>,
-    v: &Vertex<'_>,
+    hit: &Hit,
+    n: Vec3,
+    f: Color,
+    lobe: &B,
+    wo: Vec3,
     c: &LightChoice,
     u: [f32; 2],
     opts: &Options,
@@ -723,15 +748,19 @@ fn direct_window(
         .get(c.sphere)
         .and_then(|s| scene.materials.get(s.material as usize))
         .and_then(Material::emission)?;
-    nee_window::<true>(scene, v, c, le, u, opts, shadows, w)
+    nee_window::<true, B>(scene, hit, n, f, lobe, wo, c, le, u, opts, shadows, w)
 }
 
 /// [`direct`] with the light's squared radius and radiance given.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn nee<const MANY: bool>(
+fn nee<const MANY: bool, B: Lobe>(
     scene: &SceneView<'_>,
-    v: &Vertex<'_>,
+    hit: &Hit,
+    n: Vec3,
+    f: Color,
+    lobe: &B,
+    wo: Vec3,
     c: &LightChoice,
     r2: f32,
     le: Color,
@@ -740,7 +769,6 @@ fn nee<const MANY: bool>(
     shadows: &mut u32,
     omc_out: &mut f32,
 ) -> Color {
-    let (hit, n) = (v.hit, v.n);
     // the occluder lists hold what can block a reachable light: shadow rays
     // toward the others (sampled when that skip is off) test everything
     let lists = opts.skip.shadow_occluders && opts.skip.unreachable_lights;
@@ -765,7 +793,7 @@ fn nee<const MANY: bool>(
     if blocked {
         return Color::ZERO;
     }
-    let (weight, pi_pdf) = v.bsdf.eval(v.wo, n, ls.dir, cos);
+    let (s, pi_pdf) = lobe.eval(wo, n, ls.dir, cos);
     let a = 2.0 * pi_pdf * ls.omc_max;
     let a = if MANY { a / c.p_sel } else { a };
     let w = match opts.strategy {
@@ -775,7 +803,8 @@ fn nee<const MANY: bool>(
         Strategy::Mis => a / (1.0 + a * a),
         _ => a,
     };
-    v.thr * weight * le * w
+    // s is 1 for the Lambertian: f · le · w, as ever
+    f * s * le * w
 }
 
 /// [`nee`] through the light's window ([`Window::sample`]) where the window
@@ -785,9 +814,13 @@ fn nee<const MANY: bool>(
 /// `a = p_bsdf / p_light = (π p_bsdf / π) · (A |n·ω| / |y − x|²) / p_sel`.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn nee_window<const MANY: bool>(
+fn nee_window<const MANY: bool, B: Lobe>(
     scene: &SceneView<'_>,
-    v: &Vertex<'_>,
+    hit: &Hit,
+    n: Vec3,
+    f: Color,
+    lobe: &B,
+    wo: Vec3,
     c: &LightChoice,
     le: Color,
     u: [f32; 2],
@@ -795,7 +828,6 @@ fn nee_window<const MANY: bool>(
     shadows: &mut u32,
     w: &Window,
 ) -> Option<Color> {
-    let (hit, n) = (v.hit, v.n);
     if !w.covers(hit.point) {
         return None;
     }
@@ -823,10 +855,10 @@ fn nee_window<const MANY: bool>(
     if blocked {
         return Some(Color::ZERO);
     }
-    let (weight, pi_pdf) = v.bsdf.eval(v.wo, n, dir, cos);
+    let (s, pi_pdf) = lobe.eval(wo, n, dir, cos);
     let a = pi_pdf * inv_pdf * math::INV_PI;
     let a = if MANY { a / c.p_sel } else { a };
-    Some(v.thr * weight * le * mis_weight(a, opts))
+    Some(f * s * le * mis_weight(a, opts))
 }
 
 /// The weight `a / (1 + a²)` (MIS, power heuristic) or `a` (light

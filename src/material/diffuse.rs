@@ -1,6 +1,6 @@
 //! The Lambertian reflector: `f = albedo / π`, sampled by the cosine.
 
-use super::{BsdfSample, concentric_disk};
+use super::{BsdfSample, Lobe, concentric_disk};
 use crate::geometry::{Color, Vec3};
 use crate::math;
 use crate::scene::SceneError;
@@ -25,15 +25,31 @@ pub fn sample_cosine(n: Vec3, u1: f32, u2: f32, fast: bool) -> (Vec3, f32) {
     (t * x + b * y + n * cos_t, cos_t)
 }
 
-/// The Lambertian's sample: `f · cos / pdf = (albedo/π) · cos / (cos/π)`
-/// is the albedo, exactly, and `π · pdf` is the cosine.
-#[inline(always)]
-pub(crate) fn sample(albedo: Color, n: Vec3, u: [f32; 2], fast: bool) -> BsdfSample {
-    let (dir, cos) = sample_cosine(n, u[0], u[1], fast);
-    BsdfSample {
-        dir,
-        weight: albedo,
-        pi_pdf: cos,
+/// The Lambertian lobe of this albedo (diffuse and checker vertices).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lambert(pub Color);
+
+impl Lobe for Lambert {
+    #[inline(always)]
+    fn tint(&self) -> Color {
+        self.0
+    }
+
+    /// `f cos / pdf = (albedo/π) cos / (cos/π)`: the albedo, exactly; `π
+    /// pdf` is the cosine.
+    #[inline(always)]
+    fn eval(&self, _wo: Vec3, _n: Vec3, _wi: Vec3, cos_i: f32) -> (f32, f32) {
+        (1.0, cos_i)
+    }
+
+    #[inline(always)]
+    fn sample(&self, _wo: Vec3, n: Vec3, u: [f32; 2], fast: bool) -> Option<BsdfSample> {
+        let (dir, cos) = sample_cosine(n, u[0], u[1], fast);
+        Some(BsdfSample {
+            dir,
+            weight: self.0,
+            pi_pdf: cos,
+        })
     }
 }
 

@@ -20,7 +20,7 @@
 //! is `F G1(wi)`: never above the tint, never divided by a small pdf.
 
 #[cfg(feature = "metal")]
-use super::{BsdfSample, concentric_disk, reflect};
+use super::{BsdfSample, Lobe, concentric_disk, reflect};
 use crate::geometry::Color;
 #[cfg(feature = "metal")]
 use crate::geometry::Vec3;
@@ -175,11 +175,28 @@ impl Metal {
             pi_pdf: self.g1_over_cos(wo) * self.pi_d(m) * 0.25,
         })
     }
+}
 
-    /// [`Metal::sample_local`] around the unit shading normal `n`, for
-    /// world directions.
-    #[inline]
-    pub(crate) fn sample(&self, wo: Vec3, n: Vec3, u: [f32; 2], fast: bool) -> Option<BsdfSample> {
+#[cfg(feature = "metal")]
+impl Lobe for Metal {
+    #[inline(always)]
+    fn tint(&self) -> Color {
+        self.tint
+    }
+
+    /// `(G1(wi), π ×` [`Metal::pdf`]`)`: `f cos θi / pdf = tint G1(wi)`.
+    /// Out of line: the integrator's loop keeps the Lambertian's registers.
+    #[inline(never)]
+    fn eval(&self, wo: Vec3, n: Vec3, wi: Vec3, _cos_i: f32) -> (f32, f32) {
+        let (t, b) = n.basis();
+        let lo = Vec3::new(wo.dot(t), wo.dot(b), wo.dot(n));
+        let li = Vec3::new(wi.dot(t), wi.dot(b), wi.dot(n));
+        (self.g1(li), self.pi_pdf(lo, li))
+    }
+
+    /// [`Metal::sample_local`] about `n`, for world directions.
+    #[inline(never)]
+    fn sample(&self, wo: Vec3, n: Vec3, u: [f32; 2], fast: bool) -> Option<BsdfSample> {
         let (t, b) = n.basis();
         let s = self.sample_local(Vec3::new(wo.dot(t), wo.dot(b), wo.dot(n)), u, fast)?;
         let d = s.dir;
@@ -187,17 +204,5 @@ impl Metal {
             dir: t * d.x + b * d.y + n * d.z,
             ..s
         })
-    }
-
-    /// For world directions about the unit shading normal `n`, with `wi`
-    /// above the surface: `(f cos θi / pdf, π pdf)` = `(tint G1(wi), π ×`
-    /// [`Metal::pdf`]`)`; the first is meaningful where the second is
-    /// positive.
-    #[inline]
-    pub(crate) fn eval(&self, wo: Vec3, n: Vec3, wi: Vec3) -> (Color, f32) {
-        let (t, b) = n.basis();
-        let lo = Vec3::new(wo.dot(t), wo.dot(b), wo.dot(n));
-        let li = Vec3::new(wi.dot(t), wi.dot(b), wi.dot(n));
-        (self.tint * self.g1(li), self.pi_pdf(lo, li))
     }
 }

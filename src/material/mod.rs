@@ -22,7 +22,7 @@ pub mod metal;
 pub mod mirror;
 
 pub use checker::Checker;
-pub use diffuse::sample_cosine;
+pub use diffuse::{Lambert, sample_cosine};
 #[cfg(feature = "glass")]
 pub use glass::{fresnel_dielectric, sample_dielectric};
 pub use metal::Metal;
@@ -202,30 +202,47 @@ impl Material {
     }
 }
 
-impl Bsdf {
-    /// For a light sample: `(f cos θi / pdf, π pdf)` of the unit direction
-    /// `wi` (with `cos_i = n · wi > 0`) for the unit direction `wo` toward
-    /// where the path came from, about the shading normal `n`. The first is
-    /// meaningful where the second is positive; the Lambertian's are its
-    /// albedo and `cos_i`, exactly.
-    #[inline(always)]
-    pub fn eval(&self, wo: Vec3, n: Vec3, wi: Vec3, cos_i: f32) -> (Color, f32) {
-        let _ = (&wo, &n, &wi);
-        match self {
-            Bsdf::Lambert(albedo) => (*albedo, cos_i),
-            #[cfg(feature = "metal")]
-            Bsdf::Ggx(m) => m.eval(wo, n, wi),
-        }
-    }
-
+/// A non-delta BSDF as the integrator uses it, for world directions about
+/// the unit shading normal `n` that faces the incoming ray, `wo` the unit
+/// direction back along it. The integrator is compiled once per lobe type
+/// ([`Bsdf`] picks it: static dispatch), so that the Lambertian's vertex
+/// costs what it did before there were other lobes.
+pub trait Lobe: Copy {
+    /// The colour factor of every weight (albedo, tint): `f cos / pdf` is
+    /// this times the scalar of [`Lobe::eval`] or the sample's weight.
+    fn tint(&self) -> Color;
+    /// For a light sample's unit direction `wi` (with `cos_i = n · wi >
+    /// 0`): `(s, π pdf)` with `f cos θi / pdf = tint × s`; `s` is
+    /// meaningful where the pdf is positive. The Lambertian's are `1` and
+    /// `cos_i`, exactly.
+    fn eval(&self, wo: Vec3, n: Vec3, wi: Vec3, cos_i: f32) -> (f32, f32);
     /// Samples a direction from `u` in [0,1)² (`fast`: approximate
     /// trigonometry); `None` ends the path (a metal's reflection below the
     /// surface, where `f` is zero).
-    #[inline(always)]
-    pub fn sample(&self, wo: Vec3, n: Vec3, u: [f32; 2], fast: bool) -> Option<BsdfSample> {
-        let _ = &wo;
+    fn sample(&self, wo: Vec3, n: Vec3, u: [f32; 2], fast: bool) -> Option<BsdfSample>;
+}
+
+impl Bsdf {
+    /// [`Lobe::eval`] of the lobe, as `(f cos θi / pdf, π pdf)`.
+    pub fn eval(&self, wo: Vec3, n: Vec3, wi: Vec3, cos_i: f32) -> (Color, f32) {
         match self {
-            Bsdf::Lambert(albedo) => Some(diffuse::sample(*albedo, n, u, fast)),
+            Bsdf::Lambert(albedo) => {
+                let l = Lambert(*albedo);
+                let (s, p) = l.eval(wo, n, wi, cos_i);
+                (l.tint() * s, p)
+            }
+            #[cfg(feature = "metal")]
+            Bsdf::Ggx(m) => {
+                let (s, p) = m.eval(wo, n, wi, cos_i);
+                (m.tint() * s, p)
+            }
+        }
+    }
+
+    /// [`Lobe::sample`] of the lobe.
+    pub fn sample(&self, wo: Vec3, n: Vec3, u: [f32; 2], fast: bool) -> Option<BsdfSample> {
+        match self {
+            Bsdf::Lambert(albedo) => Lambert(*albedo).sample(wo, n, u, fast),
             #[cfg(feature = "metal")]
             Bsdf::Ggx(m) => m.sample(wo, n, u, fast),
         }
