@@ -261,7 +261,9 @@ fn slabs<const P: usize>(
 }
 
 fn is_opaque(materials: &[Material], m: u16) -> bool {
-    !matches!(materials.get(m as usize), Some(Material::Glass(_)) | None)
+    materials
+        .get(m as usize)
+        .is_some_and(|x| !x.is_transparent())
 }
 
 /// Signed distance of `p` from a plane, and a bound on its rounding error.
@@ -358,7 +360,10 @@ pub fn analyse_into<const S: usize, const P: usize>(
 
     // reachable emitters
     for (i, l) in spheres.iter().enumerate() {
-        let emits = matches!(materials.get(l.material as usize), Some(Material::Light(le)) if le.max_component() > 0.0);
+        let emits = materials
+            .get(l.material as usize)
+            .and_then(Material::emission)
+            .is_some_and(|le| le.max_component() > 0.0);
         if !emits {
             continue;
         }
@@ -509,7 +514,11 @@ pub fn analyse_into<const S: usize, const P: usize>(
     }
     // horizon tests: emitters (a superset of the reachable lights, so that
     // the flags hold with the unreachable-lights skip off too)
-    let is_diffuse = |m: u16| matches!(materials.get(m as usize), Some(Material::Diffuse(_)));
+    let is_diffuse = |m: u16| {
+        materials
+            .get(m as usize)
+            .is_some_and(Material::samples_lights)
+    };
     let emitting = || emitters.iter().filter_map(|&i| spheres.get(i as usize));
     let horizon_planes = planes
         .iter()

@@ -1,16 +1,19 @@
 //! Unbiased path tracing of the rendering equation
 //! `L_o = L_e + ∫ L_i f_r cos θ dω`.
 //!
-//! At every diffuse vertex the estimator combines two strategies by multiple
-//! importance sampling with the power heuristic (Veach 1997):
+//! Materials are seen only through [`Material::scatter`] (crate::material):
+//! an emitter, a Dirac delta, or a non-delta BSDF. At every non-delta vertex
+//! (Lambertian, checker, rough metal) the estimator combines two strategies
+//! by multiple importance sampling with the power heuristic (Veach 1997):
 //!
 //! * next-event estimation: one emitter is chosen (with probability
 //!   proportional to its radiance times the solid angle it subtends, zero for
 //!   emitters entirely below the surface's horizon), a direction is sampled
 //!   uniformly in its cone, and a shadow ray tests visibility;
-//! * BSDF sampling: a cosine-distributed direction continues the path; if it
-//!   hits an emitter, the emission is weighted against the light-sampling
-//!   pdf of that direction.
+//! * BSDF sampling: a direction sampled from the BSDF ([`Bsdf::sample`];
+//!   the Lambertian's cosine-distributed) continues the path; if it hits an
+//!   emitter, the emission is weighted against the light-sampling pdf of
+//!   that direction.
 //!
 //! Mirror and glass vertices are Dirac deltas: emitters seen through them get
 //! full weight. Paths end by Russian roulette on the throughput after
@@ -31,7 +34,7 @@
 
 use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3};
 use crate::light::{self, Window};
-use crate::material::{self, Material};
+use crate::material::{Bsdf, Lambert, Lobe, Material, Scatter};
 use crate::math;
 use crate::sampler::SampleStream;
 use crate::scene::SceneView;
@@ -252,31 +255,26 @@ impl<'a> OneLight<'a> {
     fn first(scene: &SceneView<'_>, lights: &[u16], windows: &'a [Window]) -> Option<Self> {
         let i = *lights.first()? as usize;
         let s = scene.spheres.get(i)?;
-        match scene.materials.get(s.material as usize)? {
-            Material::Light(le) => Some(Self {
-                sphere: i,
-                center: s.center,
-                radius: s.radius,
-                radius2: s.radius2,
-                le: *le,
-                window: window_of(windows, i),
-            }),
-            _ => None,
-        }
+        let le = scene.materials.get(s.material as usize)?.emission()?;
+        Some(Self {
+            sphere: i,
+            center: s.center,
+            radius: s.radius,
+            radius2: s.radius2,
+            le,
+            window: window_of(windows, i),
+        })
     }
 }
 
 impl Ctx<'_, '_> {
     fn light_lum(&self, sphere: usize) -> f32 {
         let s = &self.scene;
-        match s
-            .spheres
+        s.spheres
             .get(sphere)
             .and_then(|x| s.materials.get(x.material as usize))
-        {
-            Some(Material::Light(le)) => le.luminance(),
-            _ => 0.0,
-        }
+            .and_then(Material::emission)
+            .map_or(0.0, |le| le.luminance())
     }
 
     /// Whether the horizon test is worth doing on `object`.
@@ -405,9 +403,9 @@ impl Ctx<'_, '_> {
 ///
 /// Pure function of its inputs: the same stream gives the same bits. The
 /// integrator is compiled in two variants, for one light (no light
-/// selection) or several, chosen here once per path. Both hold the mirror
-/// and glass arms (when those features are built): a scene without mirrors
-/// or glass never enters them, and one copy of the loop keeps the firmware
+/// selection) or several, chosen here once per path. Both hold every
+/// material this build has: a scene without mirrors, glass or metal never
+/// enters their code, and one copy of the loop keeps the firmware
 /// small.
 #[inline(always)]
 pub fn radiance(
@@ -477,7 +475,6 @@ fn trace<const MANY: bool, const TREE: bool>(
     let mut specular = true;
     // undoes the (eta_i/eta_t)^2 radiance scaling for Russian roulette, so
     // that paths inside glass are not killed for a factor that cancels on exit
-    #[cfg_attr(not(feature = "glass"), allow(unused_mut))]
     let mut rr_scale = 1.0f32;
     let mut prev = PrevVertex {
         point: Vec3::ZERO,
@@ -513,11 +510,145 @@ fn trace<const MANY: bool, const TREE: bool>(
             }
             break;
         };
-        let Some(&mat) = scene.materials.get(hit.material as usize) else {
+        // a non-delta vertex, compiled once per lobe type (static
+        // dispatch): next-event estimation and BSDF sampling by MIS
+        macro_rules! non_delta {
+            ($lobe:expr) => {{
+                let lobe = $lobe;
+                // two-sided: shade with the normal facing the incoming ray
+                let n = if ray.dir.dot(hit.normal) < 0.0 {
+                    hit.normal
+                } else {
+                    -hit.normal
+                };
+                let wo = -ray.dir;
+                let mut weight_sum = 0.0;
+                let mut light_omc = 0.0;
+                let horizon = ctx.horizon_at(hit.object);
+                if opts.strategy != Strategy::BsdfOnly && !ctx.lights.is_empty() {
+                    // drawn before the light is chosen, so that skipping a
+                    // light below the horizon never shifts the random numbers
+                    let u = if depth == 0 && opts.stratified {
+                        stream.stratified_2d(2)
+                    } else {
+                        stream.next_2d()
+                    };
+                    let f = thr * lobe.tint();
+                    if MANY {
+                        let (choice, sum) = ctx.choose_light(hit.point, n, horizon, stream);
+                        weight_sum = sum;
+                        if let Some(c) = choice {
+                            let through = match window_of(ctx.windows, c.sphere) {
+                                Some(w) => direct_window::<TREE, _>(
+                                    scene,
+                                    &hit,
+                                    n,
+                                    f,
+                                    &lobe,
+                                    wo,
+                                    &c,
+                                    u,
+                                    opts,
+                                    &mut shadows,
+                                    w,
+                                ),
+                                None => None,
+                            };
+                            l += match through {
+                                Some(e) => e,
+                                None => direct::<TREE, _>(
+                                    scene,
+                                    &hit,
+                                    n,
+                                    f,
+                                    &lobe,
+                                    wo,
+                                    &c,
+                                    u,
+                                    opts,
+                                    &mut shadows,
+                                ),
+                            };
+                        }
+                    } else if let Some(one) = &ctx.one {
+                        weight_sum = 1.0;
+                        let to_c = one.center - hit.point;
+                        let d2 = to_c.length_squared();
+                        if d2 > one.radius2 && !(horizon && n.dot(to_c) < -one.radius) {
+                            let c = LightChoice {
+                                sphere: one.sphere,
+                                p_sel: 1.0,
+                                to_c,
+                                d2,
+                            };
+                            let through = match one.window {
+                                Some(w) => nee_window::<MANY, TREE, _>(
+                                    scene,
+                                    &hit,
+                                    n,
+                                    f,
+                                    &lobe,
+                                    wo,
+                                    &c,
+                                    one.le,
+                                    u,
+                                    opts,
+                                    &mut shadows,
+                                    w,
+                                ),
+                                None => None,
+                            };
+                            if let Some(e) = through {
+                                // negative: the window's pdf applies
+                                light_omc = -1.0;
+                                l += e;
+                            } else {
+                                l += nee::<MANY, TREE, _>(
+                                    scene,
+                                    &hit,
+                                    n,
+                                    f,
+                                    &lobe,
+                                    wo,
+                                    &c,
+                                    one.radius2,
+                                    one.le,
+                                    u,
+                                    opts,
+                                    &mut shadows,
+                                    &mut light_omc,
+                                );
+                            }
+                        }
+                    }
+                }
+                let u = if depth == 0 && opts.stratified {
+                    stream.stratified_2d(1)
+                } else {
+                    stream.next_2d()
+                };
+                let Some(bs) = lobe.sample(wo, n, u, opts.fast_math) else {
+                    break;
+                };
+                prev = PrevVertex {
+                    point: hit.point,
+                    normal: n,
+                    bsdf_pdf: bs.pi_pdf * math::INV_PI,
+                    weight_sum,
+                    light_omc,
+                    horizon,
+                };
+                // f · cos / pdf (the Lambertian's: its albedo, exactly)
+                thr *= bs.weight;
+                specular = false;
+                ray = hit.spawn_on(n, bs.dir);
+            }};
+        }
+        let Some(mat) = scene.materials.get(hit.material as usize) else {
             break;
         };
-        match mat {
-            Material::Light(le) => {
+        match mat.scatter(&hit, ray.dir, stream) {
+            Scatter::Emit(le) => {
                 // emits on the outward side only, reflects nothing
                 if ray.dir.dot(hit.normal) < 0.0 {
                     let w = if specular {
@@ -539,146 +670,16 @@ fn trace<const MANY: bool, const TREE: bool>(
                 }
                 break;
             }
-            Material::Diffuse(albedo) => {
-                // two-sided: shade with the normal facing the incoming ray
-                let n = if ray.dir.dot(hit.normal) < 0.0 {
-                    hit.normal
-                } else {
-                    -hit.normal
-                };
-                let mut weight_sum = 0.0;
-                let mut light_omc = 0.0;
-                let horizon = ctx.horizon_at(hit.object);
-                if opts.strategy != Strategy::BsdfOnly && !ctx.lights.is_empty() {
-                    // drawn before the light is chosen, so that skipping a
-                    // light below the horizon never shifts the random numbers
-                    let u = if depth == 0 && opts.stratified {
-                        stream.stratified_2d(2)
-                    } else {
-                        stream.next_2d()
-                    };
-                    if MANY {
-                        let (choice, sum) = ctx.choose_light(hit.point, n, horizon, stream);
-                        weight_sum = sum;
-                        if let Some(c) = choice {
-                            let through = match window_of(ctx.windows, c.sphere) {
-                                Some(w) => direct_window::<TREE>(
-                                    scene,
-                                    &hit,
-                                    n,
-                                    albedo,
-                                    thr,
-                                    &c,
-                                    u,
-                                    opts,
-                                    &mut shadows,
-                                    w,
-                                ),
-                                None => None,
-                            };
-                            l += match through {
-                                Some(e) => e,
-                                None => direct::<TREE>(
-                                    scene,
-                                    &hit,
-                                    n,
-                                    albedo,
-                                    thr,
-                                    &c,
-                                    u,
-                                    opts,
-                                    &mut shadows,
-                                ),
-                            };
-                        }
-                    } else if let Some(one) = &ctx.one {
-                        weight_sum = 1.0;
-                        let to_c = one.center - hit.point;
-                        let d2 = to_c.length_squared();
-                        if d2 > one.radius2 && !(horizon && n.dot(to_c) < -one.radius) {
-                            let c = LightChoice {
-                                sphere: one.sphere,
-                                p_sel: 1.0,
-                                to_c,
-                                d2,
-                            };
-                            let through = match one.window {
-                                Some(w) => nee_window::<MANY, TREE>(
-                                    scene,
-                                    &hit,
-                                    n,
-                                    thr * albedo,
-                                    &c,
-                                    one.le,
-                                    u,
-                                    opts,
-                                    &mut shadows,
-                                    w,
-                                ),
-                                None => None,
-                            };
-                            if let Some(e) = through {
-                                // negative: the window's pdf applies
-                                light_omc = -1.0;
-                                l += e;
-                            } else {
-                                l += nee::<MANY, TREE>(
-                                    scene,
-                                    &hit,
-                                    n,
-                                    thr * albedo,
-                                    &c,
-                                    one.radius2,
-                                    one.le,
-                                    u,
-                                    opts,
-                                    &mut shadows,
-                                    &mut light_omc,
-                                );
-                            }
-                        }
-                    }
-                }
-                let u = if depth == 0 && opts.stratified {
-                    stream.stratified_2d(1)
-                } else {
-                    stream.next_2d()
-                };
-                let (dir, cos) = material::sample_cosine(n, u[0], u[1], opts.fast_math);
-                prev = PrevVertex {
-                    point: hit.point,
-                    normal: n,
-                    bsdf_pdf: cos * math::INV_PI,
-                    weight_sum,
-                    light_omc,
-                    horizon,
-                };
-                // f · cos / pdf = (albedo/π) · cos / (cos/π) = albedo, exactly
-                thr *= albedo;
-                specular = false;
-                ray = hit.spawn_on(n, dir);
-            }
-            #[cfg(feature = "mirror")]
-            Material::Mirror(tint) => {
-                thr *= tint;
+            Scatter::Bsdf(Bsdf::Lambert(albedo)) => non_delta!(Lambert(albedo)),
+            #[cfg(feature = "metal")]
+            Scatter::Bsdf(Bsdf::Ggx(m)) => non_delta!(m),
+            Scatter::Delta(ds) => {
+                thr *= ds.weight;
+                rr_scale /= ds.scale;
                 specular = true;
-                ray = hit.spawn(material::reflect(ray.dir, hit.normal));
+                ray = hit.spawn(ds.dir);
             }
-            #[cfg(feature = "glass")]
-            Material::Glass(ior) => {
-                let (dir, f) =
-                    material::sample_dielectric(ray.dir, hit.normal, ior, stream.next_f32());
-                thr *= f;
-                rr_scale /= f;
-                specular = true;
-                ray = hit.spawn(dir);
-            }
-            // a material this build left out: `SceneBuilder` rejects it, so
-            // no scene holds one
-            #[cfg(not(feature = "mirror"))]
-            Material::Mirror(_) => break,
-            #[cfg(not(feature = "glass"))]
-            Material::Glass(_) => break,
+            Scatter::Absorb => break,
         }
         depth += 1;
         if depth >= opts.rr_start {
@@ -705,18 +706,22 @@ fn trace<const MANY: bool, const TREE: bool>(
 /// Next-event estimation toward the light that [`Ctx::choose_light`] chose
 /// (the several-lights variant), MIS-weighted.
 ///
-/// With `a = p_bsdf / p_light = (cos/π) · 2π (1 − cos θ_max) / p_sel`, the
-/// estimate `f · Le · cos / p_light · w` with `f = albedo/π` and the power
-/// heuristic `w = 1 / (1 + a²)` is `albedo · Le · a / (1 + a²)`: no pdf is
-/// ever divided by. With one light `a ≤ 2`, so `a²` cannot overflow.
+/// With `a = p_bsdf / p_light = (π p_bsdf / π) · 2π (1 − cos θ_max) /
+/// p_sel`, the estimate `f · Le · cos / p_light · w` with the power
+/// heuristic `w = 1 / (1 + a²)` is `(f cos / p_bsdf) · Le · a / (1 + a²)`:
+/// no pdf is ever divided by. For the Lambertian `f cos / p_bsdf` is its
+/// albedo and `π p_bsdf` the cosine, so with one light `a ≤ 2` and `a²`
+/// cannot overflow. `f` is the throughput times the lobe's tint
+/// ([`Lobe::tint`]), `wo` the direction back along the incoming ray.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn direct<const TREE: bool>(
+fn direct<const TREE: bool, B: Lobe>(
     scene: &SceneView<'_>,
     hit: &Hit,
     n: Vec3,
-    albedo: Color,
-    thr: Color,
+    f: Color,
+    lobe: &B,
+    wo: Vec3,
     c: &LightChoice,
     u: [f32; 2],
     opts: &Options,
@@ -725,59 +730,52 @@ fn direct<const TREE: bool>(
     let Some(s) = scene.spheres.get(c.sphere) else {
         return Color::ZERO;
     };
-    let Some(Material::Light(le)) = scene.materials.get(s.material as usize) else {
+    let Some(le) = scene
+        .materials
+        .get(s.material as usize)
+        .and_then(Material::emission)
+    else {
         return Color::ZERO;
     };
-    nee::<true, TREE>(
-        scene,
-        hit,
-        n,
-        thr * albedo,
-        c,
-        s.radius2,
-        *le,
-        u,
-        opts,
-        shadows,
-        &mut 0.0,
+    nee::<true, TREE, B>(
+        scene, hit, n, f, lobe, wo, c, s.radius2, le, u, opts, shadows, &mut 0.0,
     )
 }
 
 /// [`direct`] through the light's window (the several-lights variant).
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn direct_window<const TREE: bool>(
+fn direct_window<const TREE: bool, B: Lobe>(
     scene: &SceneView<'_>,
     hit: &Hit,
     n: Vec3,
-    albedo: Color,
-    thr: Color,
+    f: Color,
+    lobe: &B,
+    wo: Vec3,
     c: &LightChoice,
     u: [f32; 2],
     opts: &Options,
     shadows: &mut u32,
     w: &Window,
 ) -> Option<Color> {
-    let le = match scene
+    let le = scene
         .spheres
         .get(c.sphere)
         .and_then(|s| scene.materials.get(s.material as usize))
-    {
-        Some(Material::Light(le)) => *le,
-        _ => return None,
-    };
-    nee_window::<true, TREE>(scene, hit, n, thr * albedo, c, le, u, opts, shadows, w)
+        .and_then(Material::emission)?;
+    nee_window::<true, TREE, B>(scene, hit, n, f, lobe, wo, c, le, u, opts, shadows, w)
 }
 
-/// [`direct`] with the light's squared radius and radiance given; `f` is
-/// the throughput times the albedo.
+/// [`direct`] with the light's squared radius and radiance given.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn nee<const MANY: bool, const TREE: bool>(
+fn nee<const MANY: bool, const TREE: bool, B: Lobe>(
     scene: &SceneView<'_>,
     hit: &Hit,
     n: Vec3,
     f: Color,
+    lobe: &B,
+    wo: Vec3,
     c: &LightChoice,
     r2: f32,
     le: Color,
@@ -810,7 +808,8 @@ fn nee<const MANY: bool, const TREE: bool>(
     if blocked {
         return Color::ZERO;
     }
-    let a = 2.0 * cos * ls.omc_max;
+    let (s, pi_pdf) = lobe.eval(wo, n, ls.dir, cos);
+    let a = 2.0 * pi_pdf * ls.omc_max;
     let a = if MANY { a / c.p_sel } else { a };
     let w = match opts.strategy {
         // a/(1 + a²) = 1/(a + 1/a): the second form for the huge `a` of a
@@ -819,21 +818,24 @@ fn nee<const MANY: bool, const TREE: bool>(
         Strategy::Mis => a / (1.0 + a * a),
         _ => a,
     };
-    f * le * w
+    // s is 1 for the Lambertian: f · le · w, as ever
+    f * s * le * w
 }
 
 /// [`nee`] through the light's window ([`Window::sample`]) where the window
 /// shows all of the light's cap to the point ([`Window::covers`]; `None`
 /// elsewhere): the direction through a uniform point of the disk, tested
 /// to the cap's surface.
-/// `a = p_bsdf / p_light = (cos/π) · (A |n·ω| / |y − x|²) / p_sel`.
+/// `a = p_bsdf / p_light = (π p_bsdf / π) · (A |n·ω| / |y − x|²) / p_sel`.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn nee_window<const MANY: bool, const TREE: bool>(
+fn nee_window<const MANY: bool, const TREE: bool, B: Lobe>(
     scene: &SceneView<'_>,
     hit: &Hit,
     n: Vec3,
     f: Color,
+    lobe: &B,
+    wo: Vec3,
     c: &LightChoice,
     le: Color,
     u: [f32; 2],
@@ -868,9 +870,10 @@ fn nee_window<const MANY: bool, const TREE: bool>(
     if blocked {
         return Some(Color::ZERO);
     }
-    let a = cos * inv_pdf * math::INV_PI;
+    let (s, pi_pdf) = lobe.eval(wo, n, dir, cos);
+    let a = pi_pdf * inv_pdf * math::INV_PI;
     let a = if MANY { a / c.p_sel } else { a };
-    Some(f * le * mis_weight(a, opts))
+    Some(f * s * le * mis_weight(a, opts))
 }
 
 /// The weight `a / (1 + a²)` (MIS, power heuristic) or `a` (light

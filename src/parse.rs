@@ -1,4 +1,4 @@
-//! The scene text format v1 (docs/scene-format.md) → [`Scene`].
+//! The scene text format v2 (docs/scene-format.md) → [`Scene`].
 //!
 //! `no_std` and allocation-free: material names are borrowed from the input
 //! while parsing. Every error carries the 1-based line it was found on and
@@ -6,7 +6,7 @@
 
 use crate::camera::CameraSpec;
 use crate::geometry::Vec3;
-use crate::material::Material;
+use crate::material::{Checker, Material, Metal};
 use crate::scene::{MaterialId, Scene, SceneBuilder, SceneError};
 use heapless::Vec;
 
@@ -73,7 +73,9 @@ impl core::fmt::Display for ParseError {
                 "unknown statement (expected camera, resolution, background, material, sphere or plane)",
             ),
             ParseErrorKind::UnknownMaterialKind => {
-                f.write_str("unknown material kind (expected diffuse, mirror, glass or light)")
+                f.write_str(
+                "unknown material kind (expected diffuse, mirror, glass, metal, checker or light)",
+            )
             }
             ParseErrorKind::WrongArgCount { expected, found } => {
                 write!(f, "wrong number of values: expected {expected}, found {found}")
@@ -224,6 +226,23 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
                         count(3)?;
                         Material::Glass(nums(2..3)?[0])
                     }
+                    "metal" => {
+                        count(6)?;
+                        let v = nums(2..6)?;
+                        Material::Metal(Metal {
+                            tint: Vec3::new(v[0], v[1], v[2]),
+                            alpha: v[3],
+                        })
+                    }
+                    "checker" => {
+                        count(9)?;
+                        let v = nums(2..9)?;
+                        Material::Checker(Checker {
+                            even: Vec3::new(v[0], v[1], v[2]),
+                            odd: Vec3::new(v[3], v[4], v[5]),
+                            size: v[6],
+                        })
+                    }
                     _ => return Err(ParseErrorKind::UnknownMaterialKind),
                 };
                 if self.names.contains(&name) {
@@ -281,7 +300,13 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
                 Some("camera") => 10,
                 Some("resolution") => 2,
                 Some("background") => 3,
-                Some("material") => 5,
+                Some("material") => match toks.get(2).copied() {
+                    Some("glass") => 3,
+                    Some("metal") => 6,
+                    Some("checker") => 9,
+                    Some("diffuse" | "mirror" | "light") => 5,
+                    _ => return Err(ParseErrorKind::UnknownMaterialKind),
+                },
                 Some("sphere") => 5,
                 Some("plane") => 7,
                 _ => return Err(ParseErrorKind::UnknownStatement),
@@ -430,6 +455,16 @@ mod tests {
                 cfg!(feature = "mirror"),
             ),
             ("glass", "material m glass 1.5", cfg!(feature = "glass")),
+            (
+                "metal",
+                "material m metal 0.9 0.9 0.9 0.2",
+                cfg!(feature = "metal"),
+            ),
+            (
+                "checker",
+                "material m checker 1 1 1  0 0 0  0.5",
+                cfg!(feature = "checker"),
+            ),
         ] {
             let mut text: heapless::String<128> = heapless::String::new();
             for part in [

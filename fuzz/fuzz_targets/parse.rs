@@ -52,6 +52,18 @@ fuzz_target!(|data: &[u8]| {
                         }
                     }
                     Material::Glass(ior) => assert!(ior.is_finite() && ior > 0.0),
+                    Material::Metal(m) => {
+                        for v in [m.tint.x, m.tint.y, m.tint.z] {
+                            assert!((0.0..=1.0).contains(&v));
+                        }
+                        assert!((0.001..=1.0).contains(&m.alpha));
+                    }
+                    Material::Checker(c) => {
+                        for v in [c.even.x, c.even.y, c.even.z, c.odd.x, c.odd.y, c.odd.z] {
+                            assert!((0.0..=1.0).contains(&v));
+                        }
+                        assert!(c.size.is_finite() && c.size > 0.0);
+                    }
                     Material::Light(c) => {
                         assert!(c.is_finite() && c.x >= 0.0 && c.y >= 0.0 && c.z >= 0.0)
                     }

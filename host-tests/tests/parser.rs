@@ -1,4 +1,4 @@
-//! Scene format v1 parser: one test per error kind of docs/scene-format.md, each
+//! Scene format v2 parser: one test per error kind of docs/scene-format.md, each
 //! checking the reported line (arbitrary-input property tests that no input
 //! panics are in `stress_parse.rs`).
 
@@ -30,6 +30,7 @@ fn all_shared_scenes_parse() {
         [
             "cornell",
             "furnace",
+            "gloss",
             "many",
             "smallpt",
             "sphere-over-plane",
@@ -82,7 +83,7 @@ fn unknown_statement() {
 
 #[test]
 fn unknown_material_kind() {
-    let e = err_after_camera("material m metal 1 1 1\n");
+    let e = err_after_camera("material m velvet 1 1 1\n");
     assert_eq!((e.line, e.kind), (2, ParseErrorKind::UnknownMaterialKind));
 }
 
@@ -96,6 +97,13 @@ fn wrong_number_of_values() {
         ("background 1 1\n", 3, 2),
         ("resolution 64\n", 2, 1),
         ("material m\n", 5, 1),
+        ("material m metal 1 1 1\n", 6, 5),
+        ("material m metal 1 1 1 0.5 2\n", 6, 7),
+        ("material m checker 1 1 1  0 0 0\n", 9, 8),
+        ("material m checker 1 1 1  0 0 0  1 1\n", 9, 10),
+        // beyond the token limit: the count the kind takes
+        ("material m checker 1 1 1  0 0 0  1 1 1 1 1\n", 9, 14),
+        ("material m metal 1 1 1  0 0 0  1 1 1 1 1\n", 6, 14),
     ];
     for (body, expected, found) in cases {
         let e = err_after_camera(&format!("material m diffuse 1 1 1\n{body}"));
@@ -152,6 +160,55 @@ fn value_not_finite() {
     }
 }
 
+const METAL_ALPHA: SceneError = SceneError::OutOfRange("metal alpha (GGX width, [0.001, 1])");
+
+/// The v2 materials mean what the format says: values in order, the ends of
+/// the ranges accepted.
+#[test]
+fn metal_and_checker_statements() {
+    use micropt::material::{Checker, Metal};
+    let s = parse(&format!(
+        "{CAM}material a metal 0.9 0.8 0.7 0.001\nmaterial b metal 0 0 1 1\n\
+         material c checker 1 0.5 0  0 0.25 1  0.125\nsphere 0 0 0 1 a\n"
+    ))
+    .unwrap();
+    assert_eq!(
+        s.materials(),
+        &[
+            Material::Metal(Metal {
+                tint: Vec3::new(0.9, 0.8, 0.7),
+                alpha: 0.001
+            }),
+            Material::Metal(Metal {
+                tint: Vec3::new(0.0, 0.0, 1.0),
+                alpha: 1.0
+            }),
+            Material::Checker(Checker {
+                even: Vec3::new(1.0, 0.5, 0.0),
+                odd: Vec3::new(0.0, 0.25, 1.0),
+                size: 0.125
+            }),
+        ]
+    );
+    // a non-number and a non-finite value name their line
+    let e = err_after_camera("material m metal 1 1 1 x\n");
+    assert_eq!((e.line, e.kind), (2, ParseErrorKind::NotANumber));
+    let e = err_after_camera("material m checker 1 1 1  0 0 0  inf\n");
+    assert_eq!((e.line, e.kind), (2, ParseErrorKind::NotFinite));
+    let e = err_after_camera("material m checker 1 1 1  0 0 0  1e-60\n");
+    assert_eq!(
+        (e.line, e.kind),
+        (
+            2,
+            ParseErrorKind::Scene(SceneError::OutOfRange("checker size"))
+        )
+    );
+    assert_eq!(
+        err_after_camera("material m metal 1 1 1 2\n").to_string(),
+        "line 2: metal alpha (GGX width, [0.001, 1]) out of range"
+    );
+}
+
 #[test]
 fn values_out_of_range() {
     let cases = [
@@ -182,6 +239,32 @@ fn values_out_of_range() {
         (
             "background 0 -1 0\n",
             SceneError::OutOfRange("background radiance"),
+        ),
+        // v2: the metal's tint in [0, 1] and width ALPHA in [0.001, 1]
+        (
+            "material m metal 1 1.5 1 0.5\n",
+            SceneError::OutOfRange("metal reflectance"),
+        ),
+        ("material m metal 1 1 1 0.0009\n", METAL_ALPHA),
+        ("material m metal 1 1 1 0\n", METAL_ALPHA),
+        ("material m metal 1 1 1 -0.5\n", METAL_ALPHA),
+        ("material m metal 1 1 1 1.0001\n", METAL_ALPHA),
+        // v2: the checker's colours in [0, 1] and SIZE > 0
+        (
+            "material m checker 1 1 1  0 -0.1 0  1\n",
+            SceneError::OutOfRange("albedo"),
+        ),
+        (
+            "material m checker 1 1 2  0 0 0  1\n",
+            SceneError::OutOfRange("albedo"),
+        ),
+        (
+            "material m checker 1 1 1  0 0 0  0\n",
+            SceneError::OutOfRange("checker size"),
+        ),
+        (
+            "material m checker 1 1 1  0 0 0  -1\n",
+            SceneError::OutOfRange("checker size"),
         ),
         ("resolution 0 48\n", SceneError::Resolution),
         ("resolution 64 99999999999\n", SceneError::Resolution),

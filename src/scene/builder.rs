@@ -110,7 +110,7 @@ impl<const S: usize, const P: usize, const M: usize> Default for SceneBuilder<S,
     }
 }
 
-fn check_finite(v: Vec3) -> Result<(), SceneError> {
+pub(crate) fn check_finite(v: Vec3) -> Result<(), SceneError> {
     if v.is_finite() {
         Ok(())
     } else {
@@ -118,7 +118,7 @@ fn check_finite(v: Vec3) -> Result<(), SceneError> {
     }
 }
 
-fn check_unit_range(c: Color, what: &'static str) -> Result<(), SceneError> {
+pub(crate) fn check_unit_range(c: Color, what: &'static str) -> Result<(), SceneError> {
     check_finite(c)?;
     for v in [c.x, c.y, c.z] {
         if !(0.0..=1.0).contains(&v) {
@@ -128,7 +128,7 @@ fn check_unit_range(c: Color, what: &'static str) -> Result<(), SceneError> {
     Ok(())
 }
 
-fn check_non_negative(c: Color, what: &'static str) -> Result<(), SceneError> {
+pub(crate) fn check_non_negative(c: Color, what: &'static str) -> Result<(), SceneError> {
     check_finite(c)?;
     if c.x >= 0.0 && c.y >= 0.0 && c.z >= 0.0 {
         Ok(())
@@ -151,30 +151,13 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         }
     }
 
-    /// Adds a material after checking its values (albedo and tint in [0, 1],
-    /// IOR > 0, radiance ≥ 0). A mirror or glass material in a build without
-    /// its cargo feature is [`SceneError::MaterialNotBuilt`]: the renderer
-    /// has no code for it.
+    /// Adds a material after checking its values ([`Material::validate`]:
+    /// albedo and tint in [0, 1], IOR > 0, metal width in [0.001, 1],
+    /// checker size > 0, radiance ≥ 0). A mirror, glass, metal or checker
+    /// material in a build without its cargo feature is
+    /// [`SceneError::MaterialNotBuilt`]: the renderer has no code for it.
     pub fn material(&mut self, m: Material) -> Result<MaterialId, SceneError> {
-        match m {
-            Material::Diffuse(c) => check_unit_range(c, "albedo")?,
-            Material::Mirror(_) if !cfg!(feature = "mirror") => {
-                return Err(SceneError::MaterialNotBuilt("mirror"));
-            }
-            Material::Glass(_) if !cfg!(feature = "glass") => {
-                return Err(SceneError::MaterialNotBuilt("glass"));
-            }
-            Material::Mirror(c) => check_unit_range(c, "mirror reflectance")?,
-            Material::Glass(ior) => {
-                if !ior.is_finite() {
-                    return Err(SceneError::NotFinite);
-                }
-                if !(ior > 0.0) {
-                    return Err(SceneError::OutOfRange("index of refraction"));
-                }
-            }
-            Material::Light(c) => check_non_negative(c, "radiance")?,
-        }
+        m.validate()?;
         let id = self.materials.len() as u16;
         self.materials
             .push(m)

@@ -1,0 +1,69 @@
+//! The Lambertian reflector: `f = albedo / π`, sampled by the cosine.
+
+use super::{BsdfSample, Lobe, concentric_disk};
+use crate::geometry::{Color, Vec3};
+use crate::math;
+use crate::scene::SceneError;
+use crate::scene::builder::check_unit_range;
+
+/// Checks a Lambertian albedo (each channel in [0, 1]).
+pub(crate) fn validate(albedo: Color) -> Result<(), SceneError> {
+    check_unit_range(albedo, "albedo")
+}
+
+/// A cosine-distributed direction about the unit normal `n` from a point of
+/// [0,1)²; its pdf is `cos θ / π`. Returns `(direction, cos θ)`.
+///
+/// Malley's method: a uniform point of the unit disk
+/// ([`concentric_disk`]) lifted to the hemisphere, `cos θ = √(1 − ρ²)`
+/// (> 0 for inputs in [0,1)).
+#[inline(always)]
+pub fn sample_cosine(n: Vec3, u1: f32, u2: f32, fast: bool) -> (Vec3, f32) {
+    let (x, y, r2) = concentric_disk(u1, u2, fast);
+    let cos_t = math::sqrt(math::max(1.0 - r2, 0.0));
+    let (t, b) = n.basis();
+    (t * x + b * y + n * cos_t, cos_t)
+}
+
+/// The Lambertian lobe of this albedo (diffuse and checker vertices).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lambert(pub Color);
+
+impl Lobe for Lambert {
+    #[inline(always)]
+    fn tint(&self) -> Color {
+        self.0
+    }
+
+    /// `f cos / pdf = (albedo/π) cos / (cos/π)`: the albedo, exactly; `π
+    /// pdf` is the cosine.
+    #[inline(always)]
+    fn eval(&self, _wo: Vec3, _n: Vec3, _wi: Vec3, cos_i: f32) -> (f32, f32) {
+        (1.0, cos_i)
+    }
+
+    #[inline(always)]
+    fn sample(&self, _wo: Vec3, n: Vec3, u: [f32; 2], fast: bool) -> Option<BsdfSample> {
+        let (dir, cos) = sample_cosine(n, u[0], u[1], fast);
+        Some(BsdfSample {
+            dir,
+            weight: self.0,
+            pi_pdf: cos,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cosine_sample_is_on_the_hemisphere() {
+        let n = Vec3::new(0.0, 0.0, -1.0);
+        for i in 0..64 {
+            let (d, c) = sample_cosine(n, i as f32 / 64.0, (i * 7 % 64) as f32 / 64.0, false);
+            assert!(math::abs(d.length() - 1.0) < 1e-6);
+            assert!(math::abs(d.dot(n) - c) < 1e-6 && c > 0.0);
+        }
+    }
+}
