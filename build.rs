@@ -5,10 +5,10 @@
 //! (`target_os = "none"`) — it
 //!
 //! * copies the memory map (`examples/board/stm32f405.x`; `an521.x` there
-//!   for the `firmware-an521` feature) into `OUT_DIR` as `memory.x` (which
-//!   cortex-m-rt's `link.x` includes; no `memory.x` in the package root,
-//!   where the linker, run from there, would find it first) and puts that
-//!   directory on the linker path (in a workspace the linker runs from the
+//!   for the `firmware-an521` feature) into `OUT_DIR` as `board-memory.x`,
+//!   which the package root's `memory.x` (the file cortex-m-rt's `link.x`
+//!   includes, found first in the root, where the linker runs) includes,
+//!   and puts that directory on the linker path (in a workspace the linker runs from the
 //!   root, so a relative path would not do), and passes `-Tlink.x` (from
 //!   cortex-m-rt) to the examples' links only, so that the core and the
 //!   `micropt-host` no_std stub still build for the board targets;
@@ -55,7 +55,9 @@ fn main() {
         "examples/board/stm32f405.x"
     };
     println!("cargo:rerun-if-changed={memory}");
-    fs::copy(root.join(memory), out.join("memory.x")).expect("copy the memory map to OUT_DIR");
+    println!("cargo:rerun-if-changed=memory.x");
+    fs::copy(root.join(memory), out.join("board-memory.x"))
+        .expect("copy the memory map to OUT_DIR");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-examples=-Tlink.x");
 

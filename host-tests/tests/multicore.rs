@@ -11,15 +11,15 @@ use micropt::multicore::{
     AtomicQueue, DealtQueue, Pass, SharedError, SharedFramebuffer, WorkQueue, render_shared,
     wait_all,
 };
-use micropt::{AdaptiveOptions, Budget, Renderer, Scene};
+use micropt::{AdaptiveOptions, Budget, Renderer};
 use micropt_host::reference::scenes_dir;
-use micropt_host::render::load_scene;
+use micropt_host::render::{HostScene, load_scene};
 
 const W: usize = 40;
 const H: usize = 27;
 type Fb = Framebuffer<Rgb565, RawU16, BigEndian, W, H, { buffer_size::<Rgb565>(W, H) }>;
 
-fn scene(name: &str) -> Scene {
+fn scene(name: &str) -> Box<HostScene> {
     load_scene(&scenes_dir().join(format!("{name}.scene"))).unwrap()
 }
 
