@@ -17,7 +17,7 @@ bstep() { printf '\n==== boards: %s (%ss)\n' "$*" "$SECONDS"; }
 
 # Berkeley-style sizes of an ELF of any architecture (readelf reads them all):
 # text = allocated read-only sections (flash; on the ESP32-C3 also the code
-# copied to IRAM at boot), data = allocated writable sections with contents
+# copied to IRAM at boot, whose RAM is its .rwdata_dummy), data = allocated writable sections with contents
 # (RAM, copied from flash), bss = allocated sections without contents (RAM).
 elf_size() {
     local text=0 data=0 bss=0 line name type size flags
@@ -25,9 +25,10 @@ elf_size() {
         # "[Nr] Name Type Address Off Size ES Flg ..."
         read -r name type _ _ size _ flags _ <<<"${line#*]}"
         [[ "$flags" == *A* ]] || continue
-        # esp-hal's linker script: placeholders for address ranges, and the
-        # stack (all RAM left over), not contents
-        [[ "$name" == *_dummy || "$name" == .stack ]] && continue
+        # esp-hal's linker script: .rotext_dummy reserves the flash cache's
+        # address range (no memory), .stack is all RAM left over; its
+        # .rwdata_dummy (RAM taken by the code in IRAM) counts as bss
+        [[ "$name" == .rotext_dummy || "$name" == .stack ]] && continue
         size=$((16#$size))
         if [ "$type" = NOBITS ]; then
             bss=$((bss + size))
