@@ -1,0 +1,148 @@
+//! micropt on an ESP32-C3 (one RISC-V RV32IMC core at 160 MHz, no FPU) with
+//! a 240×240 ST7789 SPI panel, rendering the Cornell box progressively, tile
+//! by tile, straight to the panel through `mipidsi`.
+//!
+//! The core's single-core budget executor (`micropt::budget::render_budget`)
+//! keeps one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB, static)
+//! and draws every tile twice, tone-mapped, dithered, with one window write:
+//! first a 1-sample preview of the whole image, then each tile refined to
+//! its share of [`BUDGET`] with adaptive allocation. With `Budget::Spp(16)`
+//! the final image is the host's
+//! `micropt render scenes/cornell.scene --size 240x240 --spp 16 --seed 0`
+//! (the same image as the STM32F405 example's). The C3 has no FPU: every
+//! float operation is a compiler-builtins routine, so a frame is many times
+//! slower than on an M4F (docs/boards.md); a `Budget::Deadline(µs)` caps it
+//! instead, read from esp-hal's microsecond clock.
+//!
+//! Wiring (SPI2 on its IO MUX pins; any ESP32-C3 board, e.g. an
+//! ESP32-C3-DevKitM-1 or a "C3 SuperMini", and an ST7789 240×240 module):
+//!
+//! | panel | ESP32-C3           |
+//! | ----- | ------------------ |
+//! | GND   | GND                |
+//! | VCC   | 3V3                |
+//! | SCL   | GPIO6 (SPI2 SCK)   |
+//! | SDA   | GPIO7 (SPI2 MOSI)  |
+//! | RES   | GPIO5              |
+//! | DC    | GPIO4              |
+//! | CS    | GPIO10 (absent on some modules: leave it unconnected) |
+//! | BLK   | GPIO3 (driven high: backlight on) |
+//!
+//! (Clear of the strapping pins GPIO2/8/9, the flash pins GPIO12–17 and
+//! USB's GPIO18/19.)
+//!
+//! Build and flash over USB with espflash:
+//!
+//! ```text
+//! cd examples/boards/esp32c3
+//! cargo build --release
+//! espflash flash --monitor target/riscv32imc-unknown-none-elf/release/micropt-esp32c3
+//! ```
+#![no_std]
+#![no_main]
+
+use embedded_hal_bus::spi::ExclusiveDevice;
+use esp_hal::clock::CpuClock;
+use esp_hal::delay::Delay;
+use esp_hal::gpio::{Level, Output, OutputConfig};
+use esp_hal::spi::Mode;
+use esp_hal::spi::master::{Config, Spi};
+use esp_hal::time::{Instant, Rate};
+use micropt::budget::{TileAccum, render_budget};
+use micropt::{AdaptiveOptions, Budget, Renderer, Scene};
+use mipidsi::Builder;
+use mipidsi::interface::SpiInterface;
+use mipidsi::models::ST7789;
+use mipidsi::options::ColorInversion;
+
+// the application descriptor the ESP-IDF second-stage bootloader checks
+esp_bootloader_esp_idf::esp_app_desc!();
+
+/// Panel size.
+const WIDTH: u32 = 240;
+/// Panel size.
+const HEIGHT: u32 = 240;
+/// The render budget: 16 samples per pixel on average; e.g.
+/// `Budget::Deadline(60_000_000)` for a frame in a minute.
+const BUDGET: Budget = Budget::Spp(16);
+/// Render seed.
+const SEED: u64 = 0;
+/// The scene, parsed on the board.
+const SCENE_TEXT: &str = include_str!("../../../../scenes/cornell.scene");
+/// Fixed capacities: enough for cornell.scene (3 spheres, 6 planes, 6
+/// materials); a bigger scene gives a capacity error, not a panic.
+type BoardScene = Scene<4, 8, 8>;
+
+/// Microseconds since boot, from esp-hal's system timer.
+struct SysClock;
+
+impl micropt::Clock for SysClock {
+    fn micros(&mut self) -> u64 {
+        Instant::now().duration_since_epoch().as_micros()
+    }
+}
+
+/// Stops here on a panic (no way to report it without a monitor).
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    halt()
+}
+
+#[esp_hal::main]
+fn main() -> ! {
+    let p = esp_hal::init(esp_hal::Config::default().with_cpu_clock(CpuClock::max()));
+    let _backlight = Output::new(p.GPIO3, Level::High, OutputConfig::default());
+    let Ok(spi) = Spi::new(
+        p.SPI2,
+        Config::default()
+            .with_frequency(Rate::from_mhz(40))
+            .with_mode(Mode::_0),
+    ) else {
+        halt()
+    };
+    let spi = spi.with_sck(p.GPIO6).with_mosi(p.GPIO7);
+    let cs = Output::new(p.GPIO10, Level::High, OutputConfig::default());
+    let dc = Output::new(p.GPIO4, Level::Low, OutputConfig::default());
+    let rst = Output::new(p.GPIO5, Level::High, OutputConfig::default());
+    let Ok(device) = ExclusiveDevice::new_no_delay(spi, cs);
+    // on the stack, as are the scene and the accumulators below: main never
+    // returns, and the C3's stack is most of its 400 KiB of SRAM
+    let mut buffer = [0u8; 512];
+    let di = SpiInterface::new(device, dc, &mut buffer);
+    let Ok(mut panel) = Builder::new(ST7789, di)
+        .display_size(WIDTH as u16, HEIGHT as u16)
+        .invert_colors(ColorInversion::Inverted)
+        .reset_pin(rst)
+        .init(&mut Delay::new())
+    else {
+        halt()
+    };
+
+    let mut scene = BoardScene::EMPTY;
+    if micropt::parse::parse_into(SCENE_TEXT, &mut scene).is_err() {
+        halt()
+    }
+    let Ok(renderer) = Renderer::new(&scene, WIDTH, HEIGHT) else {
+        halt()
+    };
+    let renderer = renderer.seed(SEED);
+    let mut acc = TileAccum::new();
+    // preview first, then refined tiles, each straight to the panel
+    let _ = render_budget(
+        &renderer,
+        BUDGET,
+        &AdaptiveOptions::default(),
+        &mut acc,
+        &mut SysClock,
+        &mut panel,
+        1.0,
+    );
+    halt()
+}
+
+/// Stops here (done, or no way to report an error without a monitor).
+fn halt() -> ! {
+    loop {
+        core::hint::spin_loop();
+    }
+}
