@@ -102,8 +102,8 @@ fn wrong_number_of_values() {
         ("material m checker 1 1 1  0 0 0\n", 9, 8),
         ("material m checker 1 1 1  0 0 0  1 1\n", 9, 10),
         // beyond the token limit: the count the kind takes
-        ("material m checker 1 1 1  0 0 0  1 1 1 1 1\n", 9, 14),
-        ("material m metal 1 1 1  0 0 0  1 1 1 1 1\n", 6, 14),
+        ("material m checker 1 1 1  0 0 0  1 1 1 1 1\n", 9, 13),
+        ("material m metal 1 1 1  0 0 0  1 1 1 1 1\n", 6, 13),
     ];
     for (body, expected, found) in cases {
         let e = err_after_camera(&format!("material m diffuse 1 1 1\n{body}"));
