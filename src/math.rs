@@ -23,6 +23,8 @@
 //! integrator uses them only when [`crate::integrator::Options::fast_math`]
 //! asks for it, and the benchmark measures what that costs in error.
 
+pub mod soft;
+
 /// π.
 pub const PI: f32 = core::f32::consts::PI;
 /// 1 / π.
