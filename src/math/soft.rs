@@ -165,9 +165,12 @@ fn mul_bits(a: u32, b: u32) -> u32 {
     // significands is in [1, 2); one more if it is in [2, 4)
     let e = (ea + eb).wrapping_sub(128);
     if ea.wrapping_sub(1) < 254 && eb.wrapping_sub(1) < 254 && e < 253 {
-        // the sign and exponent fields of the result, short of the carry
-        let base = ((a ^ b) & SIGN) | (e << 23);
         let (h, dropped) = significand_product(a, b);
+        // the sign and exponent fields of the result, short of the carry:
+        // `e` and the sum of the sign bits (bit 31 drops a carry, leaving
+        // their exclusive or); from `a` and `b`, which are still in
+        // registers, after the product
+        let base = (((a >> 23) + (b >> 23)).wrapping_sub(128)) << 23;
         return if (h as i32) < 0 {
             round_even(base + (1 << 23), h, dropped)
         } else {
@@ -189,10 +192,13 @@ fn significand_product(a: u32, b: u32) -> (u32, u32) {
     // four 32-bit partial products (a1·2¹⁶ + a0)(b1·2¹⁶ + b0) with a1, b1 <
     // 2⁸ and a0, b0 < 2¹⁶; the sum is the product shifted right by 16,
     // below 2³²
-    let (a1, a0) = (((a >> 16) & 0x7f) | 0x80, a & 0xffff);
-    let (b1, b0) = (((b >> 16) & 0x7f) | 0x80, b & 0xffff);
+    let b1 = ((b << 9) >> 25) + 0x80;
+    let b0 = b & 0xffff;
+    let a0 = a & 0xffff;
     let lo = a0 * b0;
-    let h = ((a1 << 16) + a0) * b1 + a1 * b0 + (lo >> 16);
+    let a1 = ((a << 9) >> 25) + 0x80;
+    let mid = a1 * b0;
+    let h = ((a1 << 16) + a0) * b1 + mid + (lo >> 16);
     (h, lo & 0xffff)
 }
 
@@ -399,71 +405,77 @@ const RECIP: [u16; 128] = {
 
 #[inline(always)]
 fn div_bits(a: u32, b: u32) -> u32 {
-    let ea = (a >> 23) & 0xff;
-    let eb = (b >> 23) & 0xff;
-    let sign = (a ^ b) & SIGN;
-    if ea.wrapping_sub(1) < 254 && eb.wrapping_sub(1) < 254 {
-        return div_significands(
-            sign,
-            ea as i32 - eb as i32,
-            (a & FRAC) | IMPLICIT,
-            (b & FRAC) | IMPLICIT,
-        );
+    let ea = (a << 1) >> 24;
+    let eb = (b << 1) >> 24;
+    // the biased exponent minus one of the result if the quotient of the
+    // significands is in [½, 1); one more if it is in [1, 2)
+    let e = ea.wrapping_sub(eb).wrapping_add(125);
+    if ea.wrapping_sub(1) < 254 && eb.wrapping_sub(1) < 254 && e < 253 {
+        let (q, rem, ge) = significand_quotient((a & FRAC) | IMPLICIT, (b & FRAC) | IMPLICIT);
+        // sign and exponent fields: the difference of the sign bits leaves
+        // their exclusive or in bit 31
+        let base = ((a >> 23)
+            .wrapping_sub(b >> 23)
+            .wrapping_add(125 + u32::from(ge)))
+            << 23;
+        // q's bit 0 is the rounding bit; a tie only with a zero remainder
+        let bits = base + ((q + 1) >> 1);
+        return if q & 1 != 0 && rem == 0 {
+            bits & !1
+        } else {
+            bits
+        };
     }
     div_special(a, b)
 }
 
-/// The quotient of two significands in [2²³, 2²⁴) whose exponent fields
-/// differ by `e_diff`, rounded and packed.
+/// The quotient of significands `ma`, `mb` in [2²³, 2²⁴): `q =
+/// floor(ma · 2²⁴ / mb)` if `ma ≥ mb` (the third value), else `floor(ma ·
+/// 2²⁵ / mb)`, in [2²⁴, 2²⁵) either way, and its remainder.
 #[inline(always)]
-fn div_significands(sign: u32, e_diff: i32, mut ma: u32, mb: u32) -> u32 {
-    // e: the biased exponent minus one of a quotient in [1, 2)
-    let mut e = e_diff + 126;
-    if ma < mb {
-        ma <<= 1;
-        e -= 1;
-    }
-    // ma / mb in [1, 2); q = floor(ma · 2²⁴ / mb) in [2²⁴, 2²⁵) in two
-    // parts of 13 and 12 bits, each estimated with r ≈ 2³¹ / (mb >> 8) and
-    // corrected with its exact remainder
+fn significand_quotient(ma: u32, mb: u32) -> (u32, u32, bool) {
+    let ge = ma >= mb;
+    let ma = if ge { ma } else { ma << 1 };
+    // q in two parts of 13 and 12 bits, each estimated with r ≈ 2³¹ / (mb
+    // >> 8) and corrected with its exact remainder (computed modulo 2³²,
+    // where it is small)
     let b16 = mb >> 8;
     let t = u32::from(RECIP[((mb >> 16) & 0x7f) as usize]);
     // one Newton step: t (~8 bits) -> r (~15 bits)
     let err = (1u32 << 31).wrapping_sub(b16 * t) as i32;
     let r = (t as i32 + ((t as i32 * (err >> 8)) >> 23)) as u32;
-    // q1 = floor(ma · 2¹² / mb) in [2¹², 2¹³)
+    // q1 = floor(ma · 2¹² / mb) in [2¹², 2¹³); the estimate is within one
+    // (and so is q2's below)
     let mut q1 = ((ma >> 9) * r) >> 18;
-    let mut r1 = (ma << 12).wrapping_sub(q1.wrapping_mul(mb)) as i32;
-    while r1 < 0 {
+    let mut r1 = (ma << 12).wrapping_sub(q1.wrapping_mul(mb));
+    if (r1 as i32) < 0 {
         q1 -= 1;
-        r1 += mb as i32;
-    }
-    while r1 >= mb as i32 {
+        r1 = r1.wrapping_add(mb);
+    } else if r1 >= mb {
         q1 += 1;
-        r1 -= mb as i32;
+        r1 -= mb;
     }
     // q2 = floor(r1 · 2¹² / mb) in [0, 2¹²)
-    let r1 = r1 as u32;
     let mut q2 = ((r1 >> 8) * r) >> 19;
-    let mut r2 = (r1 << 12).wrapping_sub(q2.wrapping_mul(mb)) as i32;
-    while r2 < 0 {
+    let mut r2 = (r1 << 12).wrapping_sub(q2.wrapping_mul(mb));
+    if (r2 as i32) < 0 {
         q2 -= 1;
-        r2 += mb as i32;
-    }
-    while r2 >= mb as i32 {
+        r2 = r2.wrapping_add(mb);
+    } else if r2 >= mb {
         q2 += 1;
-        r2 -= mb as i32;
+        r2 -= mb;
     }
-    let q = (q1 << 12) + q2;
-    if (e as u32) < 254 {
-        // q's bit 0 is the rounding bit; a tie only with a zero remainder
-        let mut bits = ((e as u32) << 23) + ((q + 1) >> 1);
-        if q & 1 != 0 && r2 == 0 {
-            bits &= !1;
-        }
-        return sign | bits;
-    }
-    round_pack(sign, e, q << 7, r2 != 0)
+    ((q1 << 12) + q2, r2, ge)
+}
+
+/// The quotient of significands in [2²³, 2²⁴) whose exponents differ by
+/// `e_diff`, for any exponents: rounded and packed, overflow and underflow
+/// included.
+#[inline(always)]
+fn div_significands(sign: u32, e_diff: i32, ma: u32, mb: u32) -> u32 {
+    let (q, rem, ge) = significand_quotient(ma, mb);
+    let e = e_diff + 125 + i32::from(ge);
+    round_pack(sign, e, q << 7, rem != 0)
 }
 
 #[inline(never)]
@@ -489,6 +501,104 @@ fn div_special(a: u32, b: u32) -> u32 {
     let (ea, fa) = unpack_normalised(a);
     let (eb, fb) = unpack_normalised(b);
     div_significands(sign, ea - eb, fa, fb)
+}
+
+/// `1 / √N` at the middle of each of the 96 intervals of `N` in [2²⁴, 2²⁶)
+/// with the same `N >> 19` = `i` (32 to 127): `RSQRT[i] ≈ 2²⁸ / √((i + ½) ·
+/// 2¹⁹)`, all below 2¹⁶ (the first 32 entries are not used: indexing with
+/// `i & 127` needs no bounds check).
+const RSQRT: [u16; 128] = {
+    let mut t = [0u16; 128];
+    let mut i = 32;
+    while i < 128 {
+        // 2²⁸ / √n = √(2⁵⁶ / n), the integer square root by bisection
+        let n = (2 * i as u64 + 1) << 18;
+        let target = (1u64 << 56) / n;
+        let (mut lo, mut hi) = (0u64, 1u64 << 17);
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if mid * mid <= target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        t[i] = lo as u16;
+        i += 1;
+    }
+    t
+};
+
+/// √x, correctly rounded; −0 for −0, NaN for x < 0.
+#[inline]
+pub fn sqrt(x: f32) -> f32 {
+    f32::from_bits(sqrt_bits(x.to_bits()))
+}
+
+#[inline(always)]
+fn sqrt_bits(x: u32) -> u32 {
+    let e = (x >> 23) as i32; // the sign bit makes a negative x > 255
+    if e.wrapping_sub(1) as u32 >= 254 {
+        return sqrt_special(x);
+    }
+    sqrt_normalised(e, (x & FRAC) | IMPLICIT)
+}
+
+/// √ of the positive number with significand `m` in [2²³, 2²⁴) and
+/// exponent `e` (the biased exponent field, or less for a subnormal).
+#[inline(always)]
+fn sqrt_normalised(e: i32, m: u32) -> u32 {
+    // x = n · 2^(e − 150 − s) with an even power: n = m · 2^s, s in {1, 2},
+    // n in [2²⁴, 2²⁶); the result's significand (with a rounding bit) is
+    // floor(√(n · 2²⁴)) in [2²⁴, 2²⁵)
+    let s = 1 + ((e ^ 1) & 1);
+    let n = m << s;
+    // 1/√n to ~15 bits: the table, one Newton step
+    let y0 = u32::from(RSQRT[((n >> 19) & 127) as usize]);
+    let p = ((y0 * y0) >> 16) * (n >> 10); // ≈ 2³⁰
+    let d = (1u32 << 30).wrapping_sub(p) as i32;
+    let y = (y0 as i32 + ((y0 as i32 * (d >> 10)) >> 21)) as u32;
+    // s1 = floor(√n) in [2¹², 2¹³): the estimate is within one, corrected
+    // with the remainder n − s1²
+    let mut s1 = ((n >> 10) * y) >> 18;
+    let mut r1 = n.wrapping_sub(s1 * s1) as i32;
+    if r1 < 0 {
+        s1 -= 1;
+        r1 += (2 * s1 + 1) as i32;
+    } else if r1 > (2 * s1) as i32 {
+        s1 += 1;
+        r1 -= (2 * s1 - 1) as i32;
+    }
+    // the 12 bits below: (s1 · 2¹² + q)² ≈ n · 2²⁴ for q ≈ r1 · 2¹¹ / s1;
+    // within one, corrected with the remainder n · 2²⁴ − q², exact modulo
+    // 2³² (it is below 2²⁷ in magnitude)
+    let mut q = (s1 << 12) + ((r1 as u32 * y) >> 17);
+    let rem = (n << 24).wrapping_sub(q.wrapping_mul(q)) as i32;
+    if rem < 0 {
+        q -= 1;
+    } else if rem > (2 * q) as i32 {
+        q += 1;
+    }
+    // biased exponent minus one: 139 + (e − 150 − s) / 2 − 1; never a tie
+    // (an odd 25-bit q cannot be the exact root of an even n · 2²⁴)
+    let base = ((e - 150 - s) / 2 + 138) as u32;
+    (base << 23) + ((q + 1) >> 1)
+}
+
+#[inline(never)]
+#[cold]
+fn sqrt_special(x: u32) -> u32 {
+    if x & ABS == 0 {
+        return x; // ±0
+    }
+    if x & SIGN != 0 || is_nan(x) {
+        return NAN;
+    }
+    if x == INF {
+        return x;
+    }
+    let (e, m) = unpack_normalised(x);
+    sqrt_normalised(e, m)
 }
 
 #[cfg(test)]

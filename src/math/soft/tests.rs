@@ -164,16 +164,45 @@ fn halfway_cases_round_to_even() {
     }
 }
 
+fn check_sqrt(a: u32) {
+    let hw = f32::from_bits(a).sqrt().to_bits();
+    let soft = sqrt(f32::from_bits(a)).to_bits();
+    assert!(
+        same(soft, hw),
+        "sqrt({a:#010x}) = {soft:#010x}, FPU {hw:#010x}"
+    );
+}
+
 fn random_pairs(n: u64, seed: u64) {
     let mut rng = Rng(seed);
     for _ in 0..n {
         let (a, b) = rng.pair();
         check_binary(a, b);
+        check_sqrt(a);
+    }
+}
+
+/// The square root of every edge operand, and of every float in [1, 4)
+/// (each significand at both exponent parities) and of the subnormals
+/// below 2¹⁶ ulp.
+#[test]
+fn sqrt_matches_the_fpu() {
+    for e in EDGES {
+        for x in [e, e.wrapping_add(1), e.wrapping_sub(1)] {
+            check_sqrt(x);
+            check_sqrt(x ^ SIGN);
+        }
+    }
+    for x in 0x3f80_0000..0x4080_0000 {
+        check_sqrt(x);
+    }
+    for x in 0..1 << 16 {
+        check_sqrt(x);
     }
 }
 
 /// 10⁶ random pairs (each checked by add, sub, mul, div and the
-/// comparisons).
+/// comparisons; the first operand by sqrt).
 #[test]
 fn random_operands_match_the_fpu() {
     random_pairs(1_000_000, 1);
