@@ -503,6 +503,52 @@ fn div_special(a: u32, b: u32) -> u32 {
     div_significands(sign, ea - eb, fa, fb)
 }
 
+/// `x as f32` for an unsigned integer, correctly rounded.
+#[inline]
+pub fn from_u32(x: u32) -> f32 {
+    f32::from_bits(from_magnitude(0, x))
+}
+
+/// `x as f32` for a signed integer, correctly rounded.
+#[inline]
+pub fn from_i32(x: i32) -> f32 {
+    f32::from_bits(from_magnitude((x as u32) & SIGN, x.unsigned_abs()))
+}
+
+/// The float of sign `sign` and magnitude `x`, rounded.
+#[inline(always)]
+fn from_magnitude(sign: u32, x: u32) -> u32 {
+    if x == 0 {
+        return 0;
+    }
+    // normalise to the leading bit at bit 31, in steps (no count-leading-
+    // zeros instruction on ARMv6-M); `e` the biased exponent of 2³¹, less
+    // one, less the shift
+    let mut s = x;
+    let mut e = 157;
+    if s < 1 << 16 {
+        s <<= 16;
+        e -= 16;
+    }
+    if s < 1 << 24 {
+        s <<= 8;
+        e -= 8;
+    }
+    if s < 1 << 28 {
+        s <<= 4;
+        e -= 4;
+    }
+    if s < 1 << 30 {
+        s <<= 2;
+        e -= 2;
+    }
+    if s < 1 << 31 {
+        s <<= 1;
+        e -= 1;
+    }
+    round_even(sign | (e << 23), s, 0)
+}
+
 /// `1 / √N` at the middle of each of the 96 intervals of `N` in [2²⁴, 2²⁶)
 /// with the same `N >> 19` = `i` (32 to 127): `RSQRT[i] ≈ 2²⁸ / √((i + ½) ·
 /// 2¹⁹)`, all below 2¹⁶ (the first 32 entries are not used: indexing with

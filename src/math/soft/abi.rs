@@ -14,7 +14,7 @@
 //! themselves are safe integer code.
 #![allow(unsafe_code)]
 
-use super::{add, div, eq, le, lt, mul, sub, unordered};
+use super::{add, div, eq, from_i32, from_u32, le, lt, mul, sub, unordered};
 
 /// Defines `extern "C"` functions with unmangled names.
 macro_rules! export {
@@ -54,6 +54,10 @@ export! {
     fn __aeabi_fcmpgt(a: f32, b: f32) -> i32 { i32::from(lt(b, a)) }
     /// 1 if `a` or `b` is NaN, else 0.
     fn __aeabi_fcmpun(a: f32, b: f32) -> i32 { i32::from(unordered(a, b)) }
+    /// `x as f32`.
+    fn __aeabi_ui2f(x: u32) -> f32 { from_u32(x) }
+    /// `x as f32`.
+    fn __aeabi_i2f(x: i32) -> f32 { from_i32(x) }
 }
 
 #[cfg(target_arch = "riscv32")]
@@ -80,4 +84,8 @@ export! {
     fn __gesf2(a: f32, b: f32) -> i32 { if le(b, a) { 0 } else { -1 } }
     /// Non-zero if `a` or `b` is NaN.
     fn __unordsf2(a: f32, b: f32) -> i32 { i32::from(unordered(a, b)) }
+    /// `x as f32`.
+    fn __floatunsisf(x: u32) -> f32 { from_u32(x) }
+    /// `x as f32`.
+    fn __floatsisf(x: i32) -> f32 { from_i32(x) }
 }

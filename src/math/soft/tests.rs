@@ -173,6 +173,32 @@ fn check_sqrt(a: u32) {
     );
 }
 
+/// Integer conversions: powers of two and their neighbours, ties at every
+/// magnitude, and random integers.
+#[test]
+fn int_conversions_match_the_fpu() {
+    let mut xs = [0u32; 3 * 32 + 2];
+    for k in 0..32 {
+        xs[3 * k] = 1 << k;
+        xs[3 * k + 1] = (1u32 << k).wrapping_sub(1);
+        xs[3 * k + 2] = (1u32 << k) | 1 << k.saturating_sub(25);
+    }
+    xs[96] = u32::MAX;
+    xs[97] = 0x8000_0080; // a tie at the top
+    let mut rng = Rng(3);
+    for i in 0..1_000_000 + xs.len() {
+        let x = xs
+            .get(i)
+            .copied()
+            .unwrap_or_else(|| rng.next() as u32 >> (i % 32));
+        assert_eq!(from_u32(x).to_bits(), (x as f32).to_bits(), "{x:#x} as f32");
+        let y = x as i32;
+        assert_eq!(from_i32(y).to_bits(), (y as f32).to_bits(), "{y} as f32");
+        let y = y.wrapping_neg();
+        assert_eq!(from_i32(y).to_bits(), (y as f32).to_bits(), "{y} as f32");
+    }
+}
+
 fn random_pairs(n: u64, seed: u64) {
     let mut rng = Rng(seed);
     for _ in 0..n {
