@@ -6,13 +6,14 @@
 //! are written for every width at once: a 24×24-bit product goes through a
 //! 64-bit multiply (itself a call on ARMv6-M, which only multiplies 32×32→32)
 //! and a division runs a generic reciprocal iteration. The routines here are
-//! specialised for f32 and for a 32-bit multiplier: mantissa products from
-//! four 16×8/16×16-bit partial products, quotients and square roots from a
-//! small table, one Newton step and a final correction that uses the exact
-//! remainder (computed modulo 2³², where it is small enough to be exact).
-//! [`abi`] installs them as the runtime's routines on those targets, so the
-//! core's operators use them; on the host the tests call them directly and
-//! check them against the FPU.
+//! specialised for f32 and for a 32-bit multiplier: significand products
+//! from three 32-bit multiplies of 8- and 16-bit halves, quotients and
+//! square roots from a small table, one Newton step and a final correction
+//! that uses the exact remainder (computed modulo 2³², where it is small
+//! enough to be exact).
+//! The submodule `abi` installs them as the runtime's routines on those
+//! targets, so the core's operators use them; on the host the tests call
+//! them directly and check them against the FPU.
 //!
 //! All results are the IEEE 754 ones: round to nearest, ties to even;
 //! subnormal inputs and results are kept (no flush to zero); infinities,
@@ -189,9 +190,9 @@ fn mul_bits(a: u32, b: u32) -> u32 {
 /// significands in [2²³, 2²⁴)), and the 16 bits below them.
 #[inline(always)]
 fn significand_product(a: u32, b: u32) -> (u32, u32) {
-    // four 32-bit partial products (a1·2¹⁶ + a0)(b1·2¹⁶ + b0) with a1, b1 <
-    // 2⁸ and a0, b0 < 2¹⁶; the sum is the product shifted right by 16,
-    // below 2³²
+    // (a1·2¹⁶ + a0)(b1·2¹⁶ + b0) with a1, b1 < 2⁸ and a0, b0 < 2¹⁶, shifted
+    // right by 16 (below 2³², the product being below 2⁴⁸), from three
+    // 32-bit products: (a1·2¹⁶ + a0)·b1 + a1·b0 + (a0·b0 >> 16)
     let b1 = ((b << 9) >> 25) + 0x80;
     let b0 = b & 0xffff;
     let a0 = a & 0xffff;
