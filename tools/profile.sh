@@ -9,7 +9,8 @@
 # the function it was inlined into; tools/profile_report.py splits that by
 # inline frame and source line. With PATHS (from the firmware's summary line)
 # the counts are also given per path. The whole run is counted, setup and
-# image dump included (a few 10⁵ instructions).
+# image dump included (a few 10⁵ instructions). Calls per path of some
+# functions, from the same counts: tools/calls.py ELF OUT/counts.txt PATHS NAME...
 #
 # Env: NM (default arm-none-eabi-nm), QEMU_CPU (cortex-m4), TOP (30),
 # OUT (directory for the plugin and the counts; default target/profile).
