@@ -7,8 +7,8 @@
 //! it calls the functions of this module, which are either
 //!
 //! * correctly rounded (`sqrt`: the FPU's `vsqrt.f32` on Cortex-M4F/M33,
-//!   `sqrtss` on x86-64, libm's integer implementation elsewhere — all give the
-//!   IEEE result, hence the same bits), or
+//!   [`soft::sqrt`] on targets without an FPU, libm (`sqrtss` on x86-64)
+//!   elsewhere — all give the IEEE result, hence the same bits), or
 //! * built only from `+ - * /`, comparisons and bit casts, which IEEE 754
 //!   defines exactly (Rust never contracts `a * b + c` into a fused
 //!   multiply-add), so they give the same bits on every target.
@@ -22,6 +22,8 @@
 //! (micromath is ~5 % off for `sqrt`, so never use it for intersection); the
 //! integrator uses them only when [`crate::integrator::Options::fast_math`]
 //! asks for it, and the benchmark measures what that costs in error.
+
+pub mod soft;
 
 /// π.
 pub const PI: f32 = core::f32::consts::PI;
@@ -74,7 +76,22 @@ fn sqrt_impl(x: f32) -> f32 {
     f32::from_bits(bits_out)
 }
 
-#[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+/// Square root on targets without an FPU: [`soft::sqrt`] (a table, one
+/// Newton step and exact remainders) instead of libm's bit-by-bit loop.
+#[cfg(any(
+    all(target_arch = "arm", not(target_abi = "eabihf")),
+    all(target_arch = "riscv32", not(target_feature = "f"))
+))]
+#[inline(always)]
+fn sqrt_impl(x: f32) -> f32 {
+    soft::sqrt(x)
+}
+
+#[cfg(not(any(
+    all(target_arch = "arm", target_abi = "eabihf"),
+    all(target_arch = "arm", not(target_abi = "eabihf")),
+    all(target_arch = "riscv32", not(target_feature = "f"))
+)))]
 #[inline(always)]
 fn sqrt_impl(x: f32) -> f32 {
     libm::sqrtf(x)

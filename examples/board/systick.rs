@@ -23,7 +23,15 @@ static WRAPS: AtomicU32 = AtomicU32::new(0);
 
 #[exception]
 fn SysTick() {
+    #[cfg(target_has_atomic = "32")]
     WRAPS.fetch_add(1, Ordering::Relaxed);
+    // ARMv6-M has no atomic read-modify-write; this exception is the only
+    // writer, so a load and a store do the same
+    #[cfg(not(target_has_atomic = "32"))]
+    WRAPS.store(
+        WRAPS.load(Ordering::Relaxed).wrapping_add(1),
+        Ordering::Relaxed,
+    );
 }
 
 /// Microseconds from SysTick at a known core clock.
