@@ -29,22 +29,11 @@
 //! atomic read-modify-write).
 
 #![no_std]
-// unsafe only in the FPU square root (Cortex-M4F/M33) and in the export of
-// the soft-float routines under the runtime's names (targets without FPU)
 #![cfg_attr(
-    not(any(
-        target_arch = "arm",
-        all(target_arch = "riscv32", not(target_feature = "f"))
-    )),
+    not(all(target_arch = "arm", target_abi = "eabihf")),
     forbid(unsafe_code)
 )]
-#![cfg_attr(
-    any(
-        target_arch = "arm",
-        all(target_arch = "riscv32", not(target_feature = "f"))
-    ),
-    deny(unsafe_code)
-)]
+#![cfg_attr(all(target_arch = "arm", target_abi = "eabihf"), deny(unsafe_code))]
 #![deny(missing_docs)]
 #![deny(missing_debug_implementations)]
 #![deny(trivial_casts)]

@@ -23,12 +23,6 @@
 //! core never looks at a NaN's bits (it tests NaN-ness), so this keeps its
 //! images identical with the FPU targets.
 
-#[cfg(any(
-    all(target_arch = "arm", not(target_abi = "eabihf")),
-    all(target_arch = "riscv32", not(target_feature = "f"))
-))]
-pub mod abi;
-
 const SIGN: u32 = 0x8000_0000;
 const ABS: u32 = 0x7fff_ffff;
 const INF: u32 = 0x7f80_0000;

@@ -1,4 +1,4 @@
-//! The routines of [`super`] under the names the compiler calls for `f32`
+//! The core's soft-float routines (`micropt::math::soft`) under the names the compiler calls for `f32`
 //! arithmetic on a target without an FPU (the ARM EABI's `__aeabi_*`, the
 //! libgcc names on RISC-V), so that every operator in the core — and in the
 //! rest of the program — uses them instead of the runtime's generic ones.
@@ -10,11 +10,12 @@
 //! to zero) must have them disabled (`rp2040-hal`'s `disable-intrinsics`),
 //! or the link fails with duplicate symbols.
 //!
-//! Exporting an unmangled symbol is the only `unsafe` here: the functions
-//! themselves are safe integer code.
-#![allow(unsafe_code)]
+//! A firmware for a target without an FPU includes this module (`#[path]`):
+//! exporting an unmangled symbol is `unsafe`, and the core has no unsafe
+//! code but the FPU square root; the routines themselves are the core's
+//! safe integer code.
 
-use super::{add, div, eq, from_i32, from_u32, le, lt, mul, sub, unordered};
+use micropt::math::soft::{add, div, eq, from_i32, from_u32, le, lt, mul, sub, unordered};
 
 /// Defines `extern "C"` functions with unmangled names.
 macro_rules! export {
