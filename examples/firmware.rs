@@ -1,4 +1,6 @@
-//! The micropt core on a Cortex-M4F (STM32F405), run in QEMU.
+//! The micropt core on a microcontroller, run in QEMU: Cortex-M0 to M33 and
+//! RV32IMC (docs/firmware.md, "Targets"; by default a Cortex-M4F, QEMU's
+//! STM32F405).
 //!
 //! Parses a scene file embedded at compile time with the core's parser (or,
 //! without the core's `parser` feature, builds the Cornell box in code with
@@ -14,43 +16,61 @@
 //! ```
 //!
 //! The runner in `.cargo/config.toml` starts `qemu-system-arm -machine
-//! netduinoplus2`. Scene, size, budget, allocation, skip switches, seed and
+//! netduinoplus2` (each target has its own runner there; the machine's
+//! memory map comes from `build.rs`, `MICROPT_FW_MACHINE`). Scene, size, budget, allocation, skip switches, seed and
 //! output file are compile-time choices (`MICROPT_FW_*` environment
 //! variables, read by `build.rs`; see `docs/firmware.md`). With a sample
 //! budget the dump is byte-identical to `micropt render SCENE --spp N --size
 //! WxH --seed S -o out.rgb565` on the host (add `--uniform` for
 //! `MICROPT_FW_UNIFORM=1`). The budget executor's clock is SysTick
-//! (`examples/board/systick.rs`), which only a deadline budget reads for
-//! more than the summary line.
+//! (`examples/board/systick.rs`; on RISC-V the `time` counter,
+//! `examples/board/mtime.rs`), which only a deadline budget reads for more
+//! than the summary line.
 //!
-//! Before the render it checks that the FPU's `vsqrt.f32` (the core's
-//! `math::sqrt` on this target) equals `libm::sqrtf` bit for bit on a set of
-//! special and pseudo-random inputs; after it, it reports the stack
-//! high-water mark found by scanning cortex-m-rt's `paint-stack` pattern.
+//! Before the render it checks that the core's `math::sqrt` (the FPU's
+//! `vsqrt.f32` on eabihf targets, libm elsewhere) equals `libm::sqrtf` bit
+//! for bit on a set of special and pseudo-random inputs; after it, it
+//! reports the stack high-water mark found by scanning the stack's paint
+//! pattern (cortex-m-rt's `paint-stack`; on RISC-V painted at the start of
+//! `main`).
 //!
 //! A release build links with `panic-never`: it fails to link if any panic
 //! path is left in the firmware, core included. Debug builds use
-//! `panic-semihosting`.
+//! `panic-semihosting` (`panic-halt` on RISC-V).
 #![no_std]
 #![no_main]
 
+#[cfg(all(debug_assertions, target_arch = "riscv32"))]
+use panic_halt as _;
 #[cfg(not(debug_assertions))]
 use panic_never as _;
-#[cfg(debug_assertions)]
+#[cfg(all(debug_assertions, target_arch = "arm"))]
 use panic_semihosting as _;
 
 use core::fmt::Write;
+#[cfg(target_arch = "arm")]
 use cortex_m_rt::entry;
+#[cfg(target_arch = "arm")]
 use cortex_m_semihosting::{debug, hio, nr, syscall};
 use embedded_graphics::framebuffer::{Framebuffer, buffer_size};
 use embedded_graphics::pixelcolor::Rgb565;
 use embedded_graphics::pixelcolor::raw::{BigEndian, RawU16};
 use micropt::budget::{Summary, TileAccum, render_budget};
 use micropt::{AdaptiveOptions, Budget, Options, Renderer, Scene, math};
+#[cfg(target_arch = "riscv32")]
+use riscv_semihosting::{debug, hio, nr, syscall};
 
+#[cfg(target_arch = "arm")]
 #[path = "board/systick.rs"]
 mod systick;
-use systick::SysTickClock;
+#[cfg(target_arch = "arm")]
+use systick::SysTickClock as BoardClock;
+
+#[cfg(target_arch = "riscv32")]
+#[path = "board/mtime.rs"]
+mod mtime;
+#[cfg(target_arch = "riscv32")]
+use mtime::MtimeClock as BoardClock;
 
 /// The compile-time configuration written by `build.rs`.
 mod config {
@@ -65,9 +85,10 @@ const SCENE_TEXT: &str = include_str!(concat!(env!("OUT_DIR"), "/firmware.scene"
 /// Exposure of the tone mapping (the host CLI's default).
 const EXPOSURE: f32 = 1.0;
 
-/// Core clock of QEMU's STM32F405 (and of the board at full speed), for the
-/// SysTick clock.
-const CORE_HZ: u32 = 168_000_000;
+/// The frequency of the clock the firmware reads, in QEMU: SysTick's core
+/// clock (168 MHz on the STM32F405, as on the board at full speed), or the
+/// RISC-V timer's timebase.
+const CLOCK_HZ: u32 = config::CLOCK_HZ;
 
 type FirmwareScene = Scene<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>;
 type Fb =
@@ -80,6 +101,7 @@ enum Error {
     #[cfg(not(feature = "parser"))]
     Scene(micropt::SceneError),
     Camera,
+    #[cfg(target_arch = "arm")]
     Peripherals,
     SqrtMismatch {
         input: u32,
@@ -90,6 +112,7 @@ enum Error {
     Write,
 }
 
+#[cfg(target_arch = "arm")]
 #[entry]
 fn main() -> ! {
     // Static memory, handed out once as `&'static mut` by cortex-m-rt's
@@ -102,7 +125,38 @@ fn main() -> ! {
     static mut SCENE: FirmwareScene = FirmwareScene::EMPTY;
 
     mark(); // start of main: reset handler, stack paint and RAM init done
-    let status = match run(FRAMEBUFFER, ACCUM, SCENE) {
+    exit_with(run(FRAMEBUFFER, ACCUM, SCENE))
+}
+
+/// The entry point on RISC-V: riscv-rt's `#[entry]` does not hand out its
+/// `static mut`s as `&'static mut` as cortex-m-rt's does, so the statics are
+/// borrowed here, once.
+#[cfg(target_arch = "riscv32")]
+#[riscv_rt::entry]
+fn main() -> ! {
+    static mut FRAMEBUFFER: Fb = Fb::new();
+    static mut ACCUM: TileAccum = TileAccum::new();
+    static mut SCENE: FirmwareScene = FirmwareScene::EMPTY;
+
+    paint_stack();
+    mark(); // start of main: reset handler, RAM init and stack paint done
+    // SAFETY: `main` runs once and never returns, and nothing else names
+    // these statics: each `&'static mut` is the only reference ever made.
+    let (fb, acc, scene) = unsafe {
+        (
+            &mut *core::ptr::addr_of_mut!(FRAMEBUFFER),
+            &mut *core::ptr::addr_of_mut!(ACCUM),
+            &mut *core::ptr::addr_of_mut!(SCENE),
+        )
+    };
+    exit_with(run(fb, acc, scene))
+}
+
+/// Reports an error on the host's stderr, and exits QEMU through
+/// semihosting with status 0 or 1.
+#[inline(always)]
+fn exit_with(result: Result<(), Error>) -> ! {
+    let status = match result {
         Ok(()) => debug::EXIT_SUCCESS,
         Err(e) => {
             report(&e);
@@ -111,7 +165,10 @@ fn main() -> ! {
     };
     debug::exit(status);
     loop {
+        #[cfg(target_arch = "arm")]
         cortex_m::asm::wfi();
+        #[cfg(target_arch = "riscv32")]
+        riscv::asm::wfi();
     }
 }
 
@@ -168,10 +225,15 @@ fn run(
     scene_slot: &'static mut FirmwareScene,
 ) -> Result<(), Error> {
     check_fpu_sqrt()?;
+    // the render's clock: SysTick on the core clock, or on RISC-V the
+    // `time` counter at the machine's timebase
+    #[cfg(target_arch = "arm")]
     let mut clock = match cortex_m::Peripherals::take() {
-        Some(p) => SysTickClock::start(p.SYST, CORE_HZ),
+        Some(p) => BoardClock::start(p.SYST, CLOCK_HZ),
         None => return Err(Error::Peripherals),
     };
+    #[cfg(target_arch = "riscv32")]
+    let mut clock = BoardClock::start(CLOCK_HZ);
     mark(); // sqrt self-test done, clock started
     let scene = load_scene(scene_slot)?;
     let renderer = Renderer::new(scene, WIDTH as u32, HEIGHT as u32)
@@ -286,8 +348,8 @@ fn dump(bytes: &[u8]) -> Result<(), Error> {
     Ok(())
 }
 
-/// The FPU square root (`math::sqrt` on this target) against libm's software
-/// `sqrtf`, bit for bit: zeros, subnormals, powers of two, perfect squares,
+/// The core's square root (`math::sqrt`: the FPU's on eabihf targets, libm's
+/// on the others) against libm's software `sqrtf`, bit for bit: zeros, subnormals, powers of two, perfect squares,
 /// huge values, infinity, negative numbers and a pseudo-random sweep over all
 /// positive floats. NaN results must both be NaN (their payloads may differ).
 #[inline(never)]
@@ -332,22 +394,76 @@ fn check_fpu_sqrt() -> Result<(), Error> {
     Ok(())
 }
 
-/// Bytes of stack ever used: cortex-m-rt's `paint-stack` fills the stack with
-/// `0xcccc_cccc` before `main`; the lowest overwritten word is the high-water
-/// mark.
-fn stack_high_water() -> usize {
+/// The stack's paint pattern (cortex-m-rt's `paint-stack`).
+const STACK_PAINT: u32 = 0xcccc_cccc;
+
+/// The bottom and the top (one past the end) of the stack: cortex-m-rt's
+/// `_stack_end` and `_stack_start`, or riscv-rt's `__estack` and
+/// `_stack_start`.
+fn stack_bounds() -> (usize, usize) {
+    #[cfg(target_arch = "arm")]
     unsafe extern "C" {
-        static _stack_start: u32;
         static _stack_end: u32;
     }
-    let top = (&raw const _stack_start) as usize;
-    let mut p = (&raw const _stack_end) as usize;
+    #[cfg(target_arch = "riscv32")]
+    unsafe extern "C" {
+        #[link_name = "__estack"]
+        static _stack_end: u32;
+    }
+    unsafe extern "C" {
+        static _stack_start: u32;
+    }
+    (
+        (&raw const _stack_end) as usize,
+        (&raw const _stack_start) as usize,
+    )
+}
+
+/// Fills the stack below the current stack pointer with [`STACK_PAINT`], as
+/// cortex-m-rt's `paint-stack` does before `main` (riscv-rt has no such
+/// option). What `main` and the reset code used above it counts as used.
+#[cfg(target_arch = "riscv32")]
+#[inline(always)]
+fn paint_stack() {
+    let sp: usize;
+    // SAFETY: reads the stack pointer into a register, nothing else.
+    unsafe { core::arch::asm!("mv {}, sp", out(reg) sp, options(nomem, nostack)) };
+    let (mut p, _) = stack_bounds();
+    while p < sp {
+        // SAFETY: the words from the stack's bottom up to the stack pointer
+        // belong to the stack and are not in use (the stack grows down, and
+        // the RISC-V ABI has no red zone below the stack pointer).
+        unsafe { core::ptr::write_volatile(p as *mut u32, STACK_PAINT) };
+        p += 4;
+    }
+}
+
+/// What `math::sqrt` is on this target, for the self-test's error message
+/// (a literal, so that the message stays one format string).
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+macro_rules! sqrt_name {
+    () => {
+        "vsqrt.f32"
+    };
+}
+#[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+macro_rules! sqrt_name {
+    () => {
+        "math::sqrt"
+    };
+}
+
+/// Bytes of stack ever used: the stack was filled with [`STACK_PAINT`] before
+/// `main` (or at its start); the lowest overwritten word is the high-water
+/// mark.
+fn stack_high_water() -> usize {
+    let (mut p, top) = stack_bounds();
     while p < top {
         // SAFETY: every word between cortex-m-rt's `_stack_end` and
         // `_stack_start` is RAM that belongs to the stack; reading it is
         // always defined (volatile, so the compiler cannot assume its value).
         let word = unsafe { core::ptr::read_volatile(p as *const u32) };
-        if word != 0xcccc_cccc {
+        if word != STACK_PAINT {
             break;
         }
         p += 4;
@@ -358,11 +474,29 @@ fn stack_high_water() -> usize {
 /// Marks a phase boundary for `tools/qemu-icount`: a `yield` hint, which the
 /// compiler never emits by itself, and which the plugin counts up to. A no-op
 /// for the CPU.
+#[cfg(target_arch = "arm")]
 #[inline(always)]
 fn mark() {
     // SAFETY: `yield` is a hint instruction with no effect on registers or
     // memory on a single-core Cortex-M.
     unsafe { core::arch::asm!("yield", options(nomem, nostack, preserves_flags)) };
+}
+
+/// Marks a phase boundary for `tools/qemu-icount` on RISC-V: `slti x0, x0,
+/// 0x7ad`, a HINT (a write to `x0`) that the base ISA reserves for custom use
+/// and the compiler never emits; the plugin counts up to it. A no-op for the
+/// CPU.
+#[cfg(target_arch = "riscv32")]
+#[inline(always)]
+fn mark() {
+    // SAFETY: an instruction whose only destination is x0 changes no
+    // register and no memory.
+    unsafe {
+        core::arch::asm!(
+            "slti x0, x0, 0x7ad",
+            options(nomem, nostack, preserves_flags)
+        )
+    };
 }
 
 /// The host's stdout or stderr; output errors are ignored (there is nowhere
@@ -401,10 +535,15 @@ fn report(e: &Error) {
         #[cfg(not(feature = "parser"))]
         Error::Scene(e) => writeln!(o, "the scene built in code: {e}"),
         Error::Camera => o.write_str("invalid camera for the image size\n"),
+        #[cfg(target_arch = "arm")]
         Error::Peripherals => o.write_str("core peripherals already taken\n"),
         Error::SqrtMismatch { input, fpu, libm } => writeln!(
             o,
-            "vsqrt.f32 differs from libm::sqrtf: sqrt({input:#010x}) = {fpu:#010x}, libm {libm:#010x}"
+            concat!(
+                sqrt_name!(),
+                " differs from libm::sqrtf: sqrt({:#010x}) = {:#010x}, libm {:#010x}"
+            ),
+            input, fpu, libm
         ),
         Error::Open => {
             let _ = o.write_str("cannot open host file ");

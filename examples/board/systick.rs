@@ -23,7 +23,27 @@ static WRAPS: AtomicU32 = AtomicU32::new(0);
 
 #[exception]
 fn SysTick() {
+    count_wrap();
+}
+
+/// One more wrap. The exception is the only writer once the clock runs.
+#[cfg(target_has_atomic = "32")]
+#[inline(always)]
+fn count_wrap() {
     WRAPS.fetch_add(1, Ordering::Relaxed);
+}
+
+/// One more wrap, on cores without atomic read-modify-write (ARMv6-M): a load
+/// and a store, which is enough because the exception is the only writer once
+/// the clock runs (`start` writes before it enables the exception) and
+/// cannot interrupt itself.
+#[cfg(not(target_has_atomic = "32"))]
+#[inline(always)]
+fn count_wrap() {
+    WRAPS.store(
+        WRAPS.load(Ordering::Relaxed).wrapping_add(1),
+        Ordering::Relaxed,
+    );
 }
 
 /// Microseconds from SysTick at a known core clock.
