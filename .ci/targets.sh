@@ -178,7 +178,8 @@ check_one() {
 
     local flash ram fb stack paths render marks
     read -r flash ram <<<"$(elf_figures "$ELF")"
-    fb=$(nm -S "$ELF" | awk '$4 ~ /FRAMEBUFFER/ { print $2; exit }')
+    # (awk reads to the end: an early exit would fail the pipe under pipefail)
+    fb=$(nm -S "$ELF" | awk '$4 ~ /FRAMEBUFFER/ && !f { print $2; f = 1 }')
     [ -z "$fb" ] || fb=$((16#$fb))
     stack=$(sed -n 's/.*stack high-water \([0-9]*\) bytes.*/\1/p' "$OUT/$TAG.run")
     paths=$(sed -n 's/.*, \([0-9]*\) paths,.*/\1/p' "$OUT/$TAG.run")
