@@ -23,9 +23,11 @@
 #
 # `.ci/targets.sh cortex-m0 rv32imc` runs only those targets.
 #
-# Per target it records, for every scene, flash, static RAM, framebuffer,
-# stack high-water, render instructions, traced paths and instructions per
-# path in target/targets/<id>.size, printing a diff against
+# It checks that no firmware links soft-double routines and that the eabihf
+# ones (M4F, M7, M33) use the FPU's vsqrt.f32. Per target it records, for
+# every scene, flash, static RAM, framebuffer, stack high-water, render
+# instructions, traced paths and instructions per path in
+# target/targets/<id>.size, printing a diff against
 # firmware/expected/<id>.size (informational; `--bless` rewrites them), and
 # prints the table of docs/firmware.md ("Targets"): per target the
 # instructions per path on cornell and smallpt, and the frame time they imply
@@ -54,10 +56,11 @@ if [ "$(id -u)" != 0 ] && command -v sudo >/dev/null; then SUDO=sudo; fi
 
 tstep "install qemu-system-arm, qemu-system-misc (riscv32), binutils, gcc"
 if ! command -v qemu-system-arm >/dev/null || ! command -v qemu-system-riscv32 >/dev/null ||
-    ! command -v readelf >/dev/null || ! command -v gcc >/dev/null; then
+    ! command -v readelf >/dev/null || ! command -v arm-none-eabi-objdump >/dev/null ||
+    ! command -v gcc >/dev/null; then
     $SUDO apt-get update -qq
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
-        qemu-system-arm qemu-system-misc binutils gcc libc6-dev >/dev/null
+        qemu-system-arm qemu-system-misc binutils binutils-arm-none-eabi gcc libc6-dev >/dev/null
 fi
 rustup target add thumbv6m-none-eabi thumbv7m-none-eabi thumbv7em-none-eabihf \
     thumbv8m.main-none-eabihf riscv32imc-unknown-none-elf >/dev/null
@@ -131,6 +134,9 @@ elf_figures() {
     echo "$flash $ram"
 }
 
+# compiler-builtins' soft-double routines (as firmware.sh checks)
+SOFT_DOUBLE=' (__aeabi_(d[a-z0-9]+|(f|i|ui|l|ul)2d)|__(add|sub|mul|div|neg)df3|__(eq|ne|lt|le|gt|ge|un|cmp)df2|__(extendsfdf2|truncdfsf2)|__fix(uns)?df[sdt]i|__float(un)?[sdt]idf|__powidf2)$'
+
 # plan ID SCENE: sets NAME, SIZE, SPP, MACHINE, TAG, ELF for this run
 plan() {
     NAME=$(basename "$2" .scene)
@@ -175,6 +181,15 @@ check_one() {
     "$HOST" render "$2" --size "$SIZE" --spp "$SPP" --seed 0 --exposure 1 -o "$host" >/dev/null
     cmp "$board" "$host" ||
         fail "$TAG: the board's image differs from the host's (same scene, size, spp, seed)"
+
+    # no double precision anywhere (soft-double routines would be linked),
+    # and the FPU square root on the eabihf targets
+    if nm "$ELF" | grep -E "$SOFT_DOUBLE"; then fail "$TAG: soft-double symbols in the firmware"; fi
+    # (grep -c reads to the end: grep -q would stop early and fail the pipe)
+    if [[ "${TRIPLE[$1]}" == *eabihf ]] &&
+        [ "$(arm-none-eabi-objdump -d "$ELF" | grep -c vsqrt.f32)" = 0 ]; then
+        fail "$TAG: no vsqrt.f32 in the firmware"
+    fi
 
     local flash ram fb stack paths render marks
     read -r flash ram <<<"$(elf_figures "$ELF")"
