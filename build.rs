@@ -4,18 +4,32 @@
 //! only — the `firmware` or `board-st7789` feature on a bare-metal target
 //! (`target_os = "none"`) — it
 //!
-//! * copies the memory map (`examples/board/stm32f405.x`; `an521.x` there
-//!   for the `firmware-an521` feature) into `OUT_DIR` as `board-memory.x`,
-//!   which the package root's `memory.x` (the file cortex-m-rt's `link.x`
-//!   includes, found first in the root, where the linker runs) includes,
-//!   and puts that directory on the linker path (in a workspace the linker runs from the
-//!   root, so a relative path would not do), and passes `-Tlink.x` (from
-//!   cortex-m-rt) to the examples' links only, so that the core and the
-//!   `micropt-host` no_std stub still build for the board targets;
+//! * copies the memory map of the QEMU machine the firmware is linked for
+//!   (`MICROPT_FW_MACHINE`, by default the target's machine below:
+//!   `examples/board/memory-<machine>.x`, or `memory-stm32f405.x` for the
+//!   netduinos and the ST7789 board; `memory-mps2-an521.x` for the
+//!   `firmware-an521` feature) into `OUT_DIR` as `board-memory.x`, which the
+//!   package root's `memory.x` includes, and puts that directory on the
+//!   linker path (in a workspace the linker runs from the root, so a
+//!   relative path would not do; the root's `memory.x`, found there first,
+//!   is the one the runtime's script includes), and passes the runtime's
+//!   linker script to the examples' links only (`-Tlink.x`, from cortex-m-rt
+//!   or riscv-rt, which include `memory.x`),
+//!   so that the core and the `micropt-host` no_std stub still build for the
+//!   board targets:
+//!
+//!   | target                       | default machine  | also              |
+//!   | ---------------------------- | ---------------- | ----------------- |
+//!   | `thumbv6m-none-eabi`         | `microbit`       | `netduinoplus2`   |
+//!   | `thumbv7m-none-eabi`         | `netduino2`      | `mps2-an385`      |
+//!   | `thumbv7em-none-eabihf`      | `netduinoplus2`  | `mps2-an500`      |
+//!   | `thumbv8m.main-none-eabihf`  | `mps2-an505`     | `mps2-an521` (`firmware-an521`) |
+//!   | `riscv32imc-unknown-none-elf`| `virt`           |                   |
+//!
 //! * for the `firmware` feature, writes `firmware_config.rs` and
 //!   `firmware.scene` into `OUT_DIR`: the compile-time choice of scene, image
 //!   size, samples per pixel, seed and output file, read from environment
-//!   variables (see `docs/firmware.md`):
+//!   variables (see `docs/firmware.md`), and the machine's clock:
 //!
 //!   | variable            | default                   |
 //!   | ------------------- | ------------------------- |
@@ -25,6 +39,7 @@
 //!   | `MICROPT_FW_SEED`   | `0`                       |
 //!   | `MICROPT_FW_OUT`    | `firmware.rgb565` (host path, relative to QEMU's working directory) |
 //!   | `MICROPT_FW_CORES`  | `2` (cores sharing the render: `examples/dualcore.rs` only) |
+//!   | `MICROPT_FW_MACHINE`| the target's machine (table above) |
 //!
 //!   The scene's fixed capacities (spheres, planes, materials) are the counts
 //!   of those statements in the file, so the firmware's static RAM is what
@@ -47,23 +62,121 @@ fn main() {
     }
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     let root = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it"));
+    let riscv = env::var("CARGO_CFG_TARGET_ARCH").as_deref() == Ok("riscv32");
 
-    // the STM32F405's map, or the AN521's for the dual-core firmware
-    let memory = if env::var_os("CARGO_FEATURE_FIRMWARE_AN521").is_some() {
-        "examples/board/an521.x"
-    } else {
-        "examples/board/stm32f405.x"
+    let machine = match machine(riscv) {
+        Ok(m) => m,
+        Err(e) => panic!("firmware machine: {e}"),
     };
-    println!("cargo:rerun-if-changed={memory}");
+    let memory = root.join(machine.memory);
+    println!("cargo:rerun-if-changed={}", memory.display());
     println!("cargo:rerun-if-changed=memory.x");
-    fs::copy(root.join(memory), out.join("board-memory.x"))
-        .expect("copy the memory map to OUT_DIR");
+    fs::copy(&memory, out.join("board-memory.x")).expect("copy the memory map to OUT_DIR");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-examples=-Tlink.x");
 
-    if firmware && let Err(e) = firmware_config(&root, &out) {
+    if firmware && let Err(e) = firmware_config(&root, &out, machine) {
         panic!("firmware configuration: {e}");
     }
+}
+
+/// A QEMU machine the firmware runs on.
+struct Machine {
+    /// QEMU's `-machine` name.
+    name: &'static str,
+    /// Its memory map, relative to the package root.
+    memory: &'static str,
+    /// The frequency of the clock the firmware reads, in QEMU: the SysTick's
+    /// core clock, or the RISC-V timer's timebase.
+    clock_hz: u32,
+    /// Whether it is a RISC-V machine.
+    riscv: bool,
+}
+
+const MACHINES: [Machine; 8] = [
+    Machine {
+        name: "netduinoplus2",
+        memory: "examples/board/memory-stm32f405.x",
+        clock_hz: 168_000_000,
+        riscv: false,
+    },
+    Machine {
+        name: "netduino2",
+        memory: "examples/board/memory-stm32f405.x",
+        clock_hz: 120_000_000,
+        riscv: false,
+    },
+    Machine {
+        name: "microbit",
+        memory: "examples/board/memory-microbit.x",
+        clock_hz: 16_000_000,
+        riscv: false,
+    },
+    Machine {
+        name: "mps2-an385",
+        memory: "examples/board/memory-mps2-an385.x",
+        clock_hz: 25_000_000,
+        riscv: false,
+    },
+    Machine {
+        name: "mps2-an500",
+        memory: "examples/board/memory-mps2-an500.x",
+        clock_hz: 25_000_000,
+        riscv: false,
+    },
+    Machine {
+        name: "mps2-an505",
+        memory: "examples/board/memory-mps2-an505.x",
+        clock_hz: 20_000_000,
+        riscv: false,
+    },
+    Machine {
+        name: "mps2-an521",
+        memory: "examples/board/memory-mps2-an521.x",
+        clock_hz: 20_000_000,
+        riscv: false,
+    },
+    Machine {
+        name: "virt",
+        memory: "examples/board/memory-virt.x",
+        clock_hz: 10_000_000,
+        riscv: true,
+    },
+];
+
+/// The machine: `MICROPT_FW_MACHINE`, else the target's default.
+fn machine(riscv: bool) -> Result<&'static Machine, String> {
+    let target = env::var("TARGET").unwrap_or_default();
+    let name = match var("MICROPT_FW_MACHINE") {
+        Some(name) => name,
+        None => match target.as_str() {
+            "thumbv6m-none-eabi" => "microbit".into(),
+            "thumbv7m-none-eabi" => "netduino2".into(),
+            "thumbv8m.main-none-eabihf" if env::var_os("CARGO_FEATURE_FIRMWARE_AN521").is_some() => {
+                "mps2-an521".into()
+            }
+            "thumbv8m.main-none-eabihf" => "mps2-an505".into(),
+            t if t.starts_with("riscv32") => "virt".into(),
+            _ => "netduinoplus2".into(),
+        },
+    };
+    let m = MACHINES
+        .iter()
+        .find(|m| m.name == name.trim())
+        .ok_or_else(|| {
+            let names: Vec<&str> = MACHINES.iter().map(|m| m.name).collect();
+            format!(
+                "MICROPT_FW_MACHINE={name:?} is not one of {}",
+                names.join(", ")
+            )
+        })?;
+    if m.riscv != riscv {
+        return Err(format!(
+            "the machine {} cannot run the target {target}",
+            m.name
+        ));
+    }
+    Ok(m)
 }
 
 fn var(name: &str) -> Option<String> {
@@ -83,7 +196,7 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
+fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), String> {
     let scene_rel = var("MICROPT_FW_SCENE").unwrap_or_else(|| "scenes/cornell.scene".into());
     let scene_path = root.join(&scene_rel);
     println!("cargo:rerun-if-changed={}", scene_path.display());
@@ -224,6 +337,9 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
     fs::write(out.join("firmware.scene"), &text).map_err(|e| e.to_string())?;
     let config = format!(
         "// generated by build.rs from the MICROPT_FW_* environment variables\n\
+         /// Frequency of the clock the firmware reads (SysTick's core clock,\n\
+         /// or the RISC-V timer's timebase), in QEMU.\n\
+         pub const CLOCK_HZ: u32 = {clock_hz};\n\
          /// Scene file name (for the summary line).\n\
          pub const SCENE_NAME: &str = {scene_name:?};\n\
          /// Image width in pixels.\n\
@@ -259,6 +375,7 @@ fn firmware_config(root: &Path, out: &Path) -> Result<(), String> {
         planes.max(1),
         materials.max(1),
         !uniform,
+        clock_hz = machine.clock_hz,
     );
     fs::write(out.join("firmware_config.rs"), config).map_err(|e| e.to_string())
 }

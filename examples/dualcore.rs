@@ -75,7 +75,7 @@ use qemu::{HostFile, HostOut, STACK_PAINT, mark};
 mod config {
     include!(concat!(env!("OUT_DIR"), "/firmware_config.rs"));
 }
-use config::{CORES, HEIGHT, MAX_MATERIALS, MAX_PLANES, MAX_SPHERES, SEED, WIDTH};
+use config::{CLOCK_HZ, CORES, HEIGHT, MAX_MATERIALS, MAX_PLANES, MAX_SPHERES, SEED, WIDTH};
 
 /// The scene file chosen at compile time (`MICROPT_FW_SCENE`).
 const SCENE_TEXT: &str = include_str!(concat!(env!("OUT_DIR"), "/firmware.scene"));
@@ -113,7 +113,7 @@ const CPACR: *mut u32 = 0xe000_ed88 as *mut u32;
 /// would run for a whole pass before the other got a turn. With it the
 /// cores take turns of half a period (half a million instructions, a small
 /// part of a tile), as if they ran side by side.
-const SLICE_CYCLES: u32 = 20_000;
+const SLICE_CYCLES: u32 = CLOCK_HZ / 1000;
 
 #[exception]
 fn SysTick() {}

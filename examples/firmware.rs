@@ -1,4 +1,6 @@
-//! The micropt core on a Cortex-M4F (STM32F405), run in QEMU.
+//! The micropt core on a microcontroller, run in QEMU: Cortex-M0 to M33 and
+//! RV32IMC (docs/firmware.md, "Targets"; by default a Cortex-M4F, QEMU's
+//! STM32F405).
 //!
 //! Parses a scene file embedded at compile time with the core's parser (or,
 //! without the core's `parser` feature, builds the Cornell box in code with
@@ -14,46 +16,59 @@
 //! ```
 //!
 //! The runner in `.cargo/config.toml` starts `qemu-system-arm -machine
-//! netduinoplus2`. Scene, size, budget, allocation, skip switches, seed and
+//! netduinoplus2` (each target has its own runner there; the machine's
+//! memory map comes from `build.rs`, `MICROPT_FW_MACHINE`). Scene, size, budget, allocation, skip switches, seed and
 //! output file are compile-time choices (`MICROPT_FW_*` environment
 //! variables, read by `build.rs`; see `docs/firmware.md`). With a sample
 //! budget the dump is byte-identical to `micropt render SCENE --spp N --size
 //! WxH --seed S -o out.rgb565` on the host (add `--uniform` for
 //! `MICROPT_FW_UNIFORM=1`). The budget executor's clock is SysTick
-//! (`examples/board/systick.rs`), which only a deadline budget reads for
-//! more than the summary line.
+//! (`examples/board/systick.rs`; on RISC-V the `time` counter,
+//! `examples/board/mtime.rs`), which only a deadline budget reads for more
+//! than the summary line.
 //!
-//! Before the render it checks that the FPU's `vsqrt.f32` (the core's
-//! `math::sqrt` on this target) equals `libm::sqrtf` bit for bit on a set of
-//! special and pseudo-random inputs; after it, it reports the stack
-//! high-water mark found by scanning cortex-m-rt's `paint-stack` pattern.
+//! Before the render it checks that the core's `math::sqrt` (the FPU's
+//! `vsqrt.f32` on eabihf targets, libm elsewhere) equals `libm::sqrtf` bit
+//! for bit on a set of special and pseudo-random inputs; after it, it
+//! reports the stack high-water mark found by scanning the stack's paint
+//! pattern (cortex-m-rt's `paint-stack`; on RISC-V painted at the start of
+//! `main`).
 //!
 //! A release build links with `panic-never`: it fails to link if any panic
 //! path is left in the firmware, core included. Debug builds use
-//! `panic-semihosting`.
+//! `panic-semihosting` (`panic-halt` on RISC-V).
 #![no_std]
 #![no_main]
 
+#[cfg(all(debug_assertions, target_arch = "riscv32"))]
+use panic_halt as _;
 #[cfg(not(debug_assertions))]
 use panic_never as _;
-#[cfg(debug_assertions)]
+#[cfg(all(debug_assertions, target_arch = "arm"))]
 use panic_semihosting as _;
 
 use core::fmt::Write;
+#[cfg(target_arch = "arm")]
 use cortex_m_rt::entry;
-use cortex_m_semihosting::debug;
+#[cfg(target_arch = "arm")]
+use cortex_m_semihosting::{debug, hio, nr, syscall};
 use embedded_graphics::framebuffer::{Framebuffer, buffer_size};
 use embedded_graphics::pixelcolor::Rgb565;
 use embedded_graphics::pixelcolor::raw::{BigEndian, RawU16};
 use micropt::budget::{Summary, TileAccum, render_budget};
-use micropt::{AdaptiveOptions, Options, Renderer, Scene};
+use micropt::{AdaptiveOptions, Budget, Options, Renderer, Scene, math};
+#[cfg(target_arch = "riscv32")]
+use riscv_semihosting::{debug, hio, nr, syscall};
 
-#[path = "board/qemu.rs"]
-mod qemu;
-use qemu::{HostFile, HostOut, mark};
-
+#[cfg(target_arch = "arm")]
 #[path = "board/systick.rs"]
 mod systick;
+#[cfg(target_arch = "arm")]
+use systick::SysTickClock as BoardClock;
+
+#[cfg(target_arch = "riscv32")]
+#[path = "board/mtime.rs"]
+mod mtime;
 
 // without an FPU: the core's correctly rounded soft-float routines in place
 // of the runtime's (same bits, fewer instructions)
@@ -63,7 +78,8 @@ mod systick;
 ))]
 #[path = "board/softfloat.rs"]
 mod softfloat;
-use systick::SysTickClock;
+#[cfg(target_arch = "riscv32")]
+use mtime::MtimeClock as BoardClock;
 
 /// The compile-time configuration written by `build.rs`.
 mod config {
@@ -78,9 +94,10 @@ const SCENE_TEXT: &str = include_str!(concat!(env!("OUT_DIR"), "/firmware.scene"
 /// Exposure of the tone mapping (the host CLI's default).
 const EXPOSURE: f32 = 1.0;
 
-/// Core clock of QEMU's STM32F405 (and of the board at full speed), for the
-/// SysTick clock.
-const CORE_HZ: u32 = 168_000_000;
+/// The frequency of the clock the firmware reads, in QEMU: SysTick's core
+/// clock (168 MHz on the STM32F405, as on the board at full speed), or the
+/// RISC-V timer's timebase.
+const CLOCK_HZ: u32 = config::CLOCK_HZ;
 
 type FirmwareScene = Scene<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>;
 type Fb =
@@ -93,12 +110,18 @@ enum Error {
     #[cfg(not(feature = "parser"))]
     Scene(micropt::SceneError),
     Camera,
+    #[cfg(target_arch = "arm")]
     Peripherals,
-    SqrtMismatch(qemu::SqrtMismatch),
+    SqrtMismatch {
+        input: u32,
+        fpu: u32,
+        libm: u32,
+    },
     Open,
     Write,
 }
 
+#[cfg(target_arch = "arm")]
 #[entry]
 fn main() -> ! {
     // Static memory, handed out once as `&'static mut` by cortex-m-rt's
@@ -111,7 +134,38 @@ fn main() -> ! {
     static mut SCENE: FirmwareScene = FirmwareScene::EMPTY;
 
     mark(); // start of main: reset handler, stack paint and RAM init done
-    let status = match run(FRAMEBUFFER, ACCUM, SCENE) {
+    exit_with(run(FRAMEBUFFER, ACCUM, SCENE))
+}
+
+/// The entry point on RISC-V: riscv-rt's `#[entry]` does not hand out its
+/// `static mut`s as `&'static mut` as cortex-m-rt's does, so the statics are
+/// borrowed here, once.
+#[cfg(target_arch = "riscv32")]
+#[riscv_rt::entry]
+fn main() -> ! {
+    static mut FRAMEBUFFER: Fb = Fb::new();
+    static mut ACCUM: TileAccum = TileAccum::new();
+    static mut SCENE: FirmwareScene = FirmwareScene::EMPTY;
+
+    paint_stack();
+    mark(); // start of main: reset handler, RAM init and stack paint done
+    // SAFETY: `main` runs once and never returns, and nothing else names
+    // these statics: each `&'static mut` is the only reference ever made.
+    let (fb, acc, scene) = unsafe {
+        (
+            &mut *core::ptr::addr_of_mut!(FRAMEBUFFER),
+            &mut *core::ptr::addr_of_mut!(ACCUM),
+            &mut *core::ptr::addr_of_mut!(SCENE),
+        )
+    };
+    exit_with(run(fb, acc, scene))
+}
+
+/// Reports an error on the host's stderr, and exits QEMU through
+/// semihosting with status 0 or 1.
+#[inline(always)]
+fn exit_with(result: Result<(), Error>) -> ! {
+    let status = match result {
         Ok(()) => debug::EXIT_SUCCESS,
         Err(e) => {
             report(&e);
@@ -120,7 +174,10 @@ fn main() -> ! {
     };
     debug::exit(status);
     loop {
+        #[cfg(target_arch = "arm")]
         cortex_m::asm::wfi();
+        #[cfg(target_arch = "riscv32")]
+        riscv::asm::wfi();
     }
 }
 
@@ -176,11 +233,16 @@ fn run(
     acc: &'static mut TileAccum,
     scene_slot: &'static mut FirmwareScene,
 ) -> Result<(), Error> {
-    qemu::check_fpu_sqrt().map_err(Error::SqrtMismatch)?;
+    check_fpu_sqrt()?;
+    // the render's clock: SysTick on the core clock, or on RISC-V the
+    // `time` counter at the machine's timebase
+    #[cfg(target_arch = "arm")]
     let mut clock = match cortex_m::Peripherals::take() {
-        Some(p) => SysTickClock::start(p.SYST, CORE_HZ),
+        Some(p) => BoardClock::start(p.SYST, CLOCK_HZ),
         None => return Err(Error::Peripherals),
     };
+    #[cfg(target_arch = "riscv32")]
+    let mut clock = BoardClock::start(CLOCK_HZ);
     mark(); // sqrt self-test done, clock started
     let scene = load_scene(scene_slot)?;
     let renderer = Renderer::new(scene, WIDTH as u32, HEIGHT as u32)
@@ -214,7 +276,7 @@ fn run(
     dump(fb.data())?;
     mark(); // dump written
 
-    summary(&sum, fb.data().len(), qemu::main_stack_high_water());
+    summary(&sum, fb.data().len(), stack_high_water());
     Ok(())
 }
 
@@ -226,19 +288,23 @@ fn run(
 fn summary(sum: &Summary, bytes: usize, stack: usize) {
     let mut out = HostOut::stdout();
     let o = &mut out;
-    qemu::write_run(
-        o,
-        "micropt firmware",
-        config::SCENE_NAME,
-        (WIDTH, HEIGHT),
-        config::BUDGET,
-        config::ADAPTIVE,
-        config::SKIP_LABEL,
-        SEED,
-    );
+    let _ = o.write_str("micropt firmware: ");
+    let _ = o.write_str(config::SCENE_NAME);
+    let _ = write!(o, " {WIDTH}x{HEIGHT} ");
+    let _ = match config::BUDGET {
+        Budget::Deadline(us) => write!(o, "deadline {} ms", us / 1000),
+        Budget::Paths(p) => write!(o, "paths {p}"),
+        Budget::Spp(n) => write!(o, "spp {n}"),
+    };
+    let _ = o.write_str(if config::ADAPTIVE {
+        " adaptive skip "
+    } else {
+        " uniform skip "
+    });
+    let _ = o.write_str(config::SKIP_LABEL);
     let _ = write!(
         o,
-        ": {} samples, {} paths, {} bounce rays, {} shadow rays, {} non-finite; ",
+        " seed {SEED}: {} samples, {} paths, {} bounce rays, {} shadow rays, {} non-finite; ",
         sum.samples,
         sum.stats.paths,
         sum.stats.bounce_rays,
@@ -265,12 +331,203 @@ fn output_name() -> &'static str {
 /// Writes `bytes` to the host file `config::OUTPUT` (semihosting
 /// OPEN "wb" / WRITE / CLOSE).
 fn dump(bytes: &[u8]) -> Result<(), Error> {
-    let mut file = HostFile::create(config::OUTPUT).ok_or(Error::Open)?;
-    let written = file.write(bytes);
-    if !(file.close() && written) {
+    let name = config::OUTPUT;
+    // SAFETY: OPEN takes a NUL-terminated name, a mode and the name's length
+    // without the NUL; `name` ends with the NUL build.rs appends and lives
+    // for the whole call.
+    let fd = unsafe {
+        syscall!(
+            OPEN,
+            name.as_ptr(),
+            nr::open::W_TRUNC_BINARY,
+            name.len().saturating_sub(1)
+        )
+    };
+    if fd as isize == -1 {
+        return Err(Error::Open);
+    }
+    // SAFETY: WRITE reads `len` bytes from the pointer, which `bytes` owns;
+    // it returns the number of bytes *not* written.
+    let left = unsafe { syscall!(WRITE, fd, bytes.as_ptr(), bytes.len()) };
+    // SAFETY: CLOSE takes the handle OPEN returned.
+    let closed = unsafe { syscall!(CLOSE, fd) };
+    if left != 0 || closed != 0 {
         return Err(Error::Write);
     }
     Ok(())
+}
+
+/// The core's square root (`math::sqrt`: the FPU's on eabihf targets, libm's
+/// on the others) against libm's software `sqrtf`, bit for bit: zeros, subnormals, powers of two, perfect squares,
+/// huge values, infinity, negative numbers and a pseudo-random sweep over all
+/// positive floats. NaN results must both be NaN (their payloads may differ).
+#[inline(never)]
+fn check_fpu_sqrt() -> Result<(), Error> {
+    let specials = [
+        0x0000_0000u32, // +0
+        0x8000_0000,    // -0
+        0x0000_0001,    // smallest subnormal
+        0x007f_ffff,    // largest subnormal
+        0x0080_0000,    // smallest normal
+        0x3f80_0000,    // 1
+        0x4000_0000,    // 2
+        0x4080_0000,    // 4
+        0x4110_0000,    // 9
+        0x3f80_0001,    // 1 + ulp
+        0x3f7f_ffff,    // 1 - ulp
+        0x7f7f_ffff,    // largest finite
+        0x7f80_0000,    // +inf
+        0xbf80_0000,    // -1
+        0x7fc0_0000,    // NaN
+    ];
+    let mut state = 0x2545_f491u32;
+    let random = (0..4096).map(move |_| {
+        // xorshift32, restricted to non-negative floats
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        state & 0x7fff_ffff
+    });
+    for input in specials.into_iter().chain(random) {
+        let x = f32::from_bits(input);
+        let (fpu, soft) = (math::sqrt(x), libm::sqrtf(x));
+        let same = fpu.to_bits() == soft.to_bits() || (fpu.is_nan() && soft.is_nan());
+        if !same {
+            return Err(Error::SqrtMismatch {
+                input,
+                fpu: fpu.to_bits(),
+                libm: soft.to_bits(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The stack's paint pattern (cortex-m-rt's `paint-stack`).
+const STACK_PAINT: u32 = 0xcccc_cccc;
+
+/// The bottom and the top (one past the end) of the stack: cortex-m-rt's
+/// `_stack_end` and `_stack_start`, or riscv-rt's `__estack` and
+/// `_stack_start`.
+fn stack_bounds() -> (usize, usize) {
+    #[cfg(target_arch = "arm")]
+    unsafe extern "C" {
+        static _stack_end: u32;
+    }
+    #[cfg(target_arch = "riscv32")]
+    unsafe extern "C" {
+        #[link_name = "__estack"]
+        static _stack_end: u32;
+    }
+    unsafe extern "C" {
+        static _stack_start: u32;
+    }
+    (
+        (&raw const _stack_end) as usize,
+        (&raw const _stack_start) as usize,
+    )
+}
+
+/// Fills the stack below the current stack pointer with [`STACK_PAINT`], as
+/// cortex-m-rt's `paint-stack` does before `main` (riscv-rt has no such
+/// option). What `main` and the reset code used above it counts as used.
+#[cfg(target_arch = "riscv32")]
+#[inline(always)]
+fn paint_stack() {
+    let sp: usize;
+    // SAFETY: reads the stack pointer into a register, nothing else.
+    unsafe { core::arch::asm!("mv {}, sp", out(reg) sp, options(nomem, nostack)) };
+    let (mut p, _) = stack_bounds();
+    while p < sp {
+        // SAFETY: the words from the stack's bottom up to the stack pointer
+        // belong to the stack and are not in use (the stack grows down, and
+        // the RISC-V ABI has no red zone below the stack pointer).
+        unsafe { core::ptr::write_volatile(p as *mut u32, STACK_PAINT) };
+        p += 4;
+    }
+}
+
+/// What `math::sqrt` is on this target, for the self-test's error message
+/// (a literal, so that the message stays one format string).
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+macro_rules! sqrt_name {
+    () => {
+        "vsqrt.f32"
+    };
+}
+#[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+macro_rules! sqrt_name {
+    () => {
+        "math::sqrt"
+    };
+}
+
+/// Bytes of stack ever used: the stack was filled with [`STACK_PAINT`] before
+/// `main` (or at its start); the lowest overwritten word is the high-water
+/// mark.
+fn stack_high_water() -> usize {
+    let (mut p, top) = stack_bounds();
+    while p < top {
+        // SAFETY: every word between cortex-m-rt's `_stack_end` and
+        // `_stack_start` is RAM that belongs to the stack; reading it is
+        // always defined (volatile, so the compiler cannot assume its value).
+        let word = unsafe { core::ptr::read_volatile(p as *const u32) };
+        if word != STACK_PAINT {
+            break;
+        }
+        p += 4;
+    }
+    top - p
+}
+
+/// Marks a phase boundary for `tools/qemu-icount`: a `yield` hint, which the
+/// compiler never emits by itself, and which the plugin counts up to. A no-op
+/// for the CPU.
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn mark() {
+    // SAFETY: `yield` is a hint instruction with no effect on registers or
+    // memory on a single-core Cortex-M.
+    unsafe { core::arch::asm!("yield", options(nomem, nostack, preserves_flags)) };
+}
+
+/// Marks a phase boundary for `tools/qemu-icount` on RISC-V: `slti x0, x0,
+/// 0x7ad`, a HINT (a write to `x0`) that the base ISA reserves for custom use
+/// and the compiler never emits; the plugin counts up to it. A no-op for the
+/// CPU.
+#[cfg(target_arch = "riscv32")]
+#[inline(always)]
+fn mark() {
+    // SAFETY: an instruction whose only destination is x0 changes no
+    // register and no memory.
+    unsafe {
+        core::arch::asm!(
+            "slti x0, x0, 0x7ad",
+            options(nomem, nostack, preserves_flags)
+        )
+    };
+}
+
+/// The host's stdout or stderr; output errors are ignored (there is nowhere
+/// else to report them).
+struct HostOut(Option<hio::HostStream>);
+
+impl HostOut {
+    fn stdout() -> Self {
+        Self(hio::hstdout().ok())
+    }
+    fn stderr() -> Self {
+        Self(hio::hstderr().ok())
+    }
+}
+
+impl Write for HostOut {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        if let Some(h) = self.0.as_mut() {
+            let _ = h.write_all(s.as_bytes());
+        }
+        Ok(())
+    }
 }
 
 fn report(e: &Error) {
@@ -287,18 +544,25 @@ fn report(e: &Error) {
         #[cfg(not(feature = "parser"))]
         Error::Scene(e) => writeln!(o, "the scene built in code: {e}"),
         Error::Camera => o.write_str("invalid camera for the image size\n"),
+        #[cfg(target_arch = "arm")]
         Error::Peripherals => o.write_str("core peripherals already taken\n"),
-        Error::SqrtMismatch(m) => {
-            m.write(o);
-            Ok(())
-        }
+        Error::SqrtMismatch { input, fpu, libm } => writeln!(
+            o,
+            concat!(
+                sqrt_name!(),
+                " differs from libm::sqrtf: sqrt({:#010x}) = {:#010x}, libm {:#010x}"
+            ),
+            input, fpu, libm
+        ),
         Error::Open => {
-            qemu::write_file_error(o, output_name(), true);
-            Ok(())
+            let _ = o.write_str("cannot open host file ");
+            let _ = o.write_str(output_name());
+            o.write_str(" for writing (is semihosting enabled?)\n")
         }
         Error::Write => {
-            qemu::write_file_error(o, output_name(), false);
-            Ok(())
+            let _ = o.write_str("writing ");
+            let _ = o.write_str(output_name());
+            o.write_str(" failed\n")
         }
     };
 }

@@ -23,11 +23,23 @@ static WRAPS: AtomicU32 = AtomicU32::new(0);
 
 #[exception]
 fn SysTick() {
-    #[cfg(target_has_atomic = "32")]
+    count_wrap();
+}
+
+/// One more wrap. The exception is the only writer once the clock runs.
+#[cfg(target_has_atomic = "32")]
+#[inline(always)]
+fn count_wrap() {
     WRAPS.fetch_add(1, Ordering::Relaxed);
-    // ARMv6-M has no atomic read-modify-write; this exception is the only
-    // writer, so a load and a store do the same
-    #[cfg(not(target_has_atomic = "32"))]
+}
+
+/// One more wrap, on cores without atomic read-modify-write (ARMv6-M): a load
+/// and a store, which is enough because the exception is the only writer once
+/// the clock runs (`start` writes before it enables the exception) and
+/// cannot interrupt itself.
+#[cfg(not(target_has_atomic = "32"))]
+#[inline(always)]
+fn count_wrap() {
     WRAPS.store(
         WRAPS.load(Ordering::Relaxed).wrapping_add(1),
         Ordering::Relaxed,

@@ -3,9 +3,12 @@
  *
  * At exit it prints `insns: N` (every instruction executed) and, if the
  * guest executed any, `marks: M1 M2 ...`: the number of instructions
- * executed up to and including each Thumb `yield` hint (0xbf10). The micropt
- * firmware places one between its phases (setup, parse, render, dump); the
- * compiler never emits `yield` by itself. Counts are exact and repeatable.
+ * executed up to and including each phase mark: on Arm the Thumb `yield`
+ * hint (0xbf10), on RISC-V `slti x0, x0, 0x7ad` (0x7ad02013, a HINT the ISA
+ * leaves for custom use). The micropt firmware places one between its phases
+ * (setup, parse, render, dump); the compiler emits neither by itself. Counts
+ * are exact and repeatable. Any guest architecture: the target's name
+ * (`arm`, `riscv32`, ...) picks the mark.
  *
  * On a machine with several vCPUs (`smp_vcpus` > 1, e.g. mps2-an521's two
  * Cortex-M33) it counts per vCPU as well, and prints for each vCPU that ran
@@ -51,6 +54,7 @@ void qemu_plugin_register_vcpu_tb_exec_cb(struct qemu_plugin_tb *, vcpu_udata_cb
 #define MAX_MARKS 64
 #define MAX_VCPUS 8
 static uint64_t insns;
+static bool riscv;
 static uint64_t marks[MAX_MARKS];
 static unsigned n_marks;
 static bool per_vcpu;
@@ -90,7 +94,10 @@ static void on_trans(qemu_plugin_id_t id, struct qemu_plugin_tb *tb) {
     for (size_t i = 0; i < n; i++) {
         struct qemu_plugin_insn *insn = qemu_plugin_tb_get_insn(tb, i);
         const uint8_t *d = qemu_plugin_insn_data(insn);
-        if (qemu_plugin_insn_size(insn) == 2 && d[0] == 0x10 && d[1] == 0xbf) {
+        size_t size = qemu_plugin_insn_size(insn);
+        bool is_mark = riscv ? size == 4 && d[0] == 0x13 && d[1] == 0x20 && d[2] == 0xd0 && d[3] == 0x7a
+                             : size == 2 && d[0] == 0x10 && d[1] == 0xbf;
+        if (is_mark) {
             qemu_plugin_register_vcpu_insn_exec_cb(insn, on_mark, QEMU_PLUGIN_CB_NO_REGS,
                                                    (void *)(uintptr_t)(n - 1 - i));
         }
@@ -129,6 +136,7 @@ __attribute__((visibility("default")))
 int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_t *info, int argc, char **argv) {
     (void)argc; (void)argv;
     per_vcpu = info->system_emulation && info->system.smp_vcpus > 1;
+    riscv = strncmp(info->target_name, "riscv", 5) == 0;
     qemu_plugin_register_vcpu_tb_trans_cb(id, on_trans);
     qemu_plugin_register_atexit_cb(id, on_exit_cb, NULL);
     return 0;
