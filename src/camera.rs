@@ -150,15 +150,23 @@ pub struct Camera {
     /// The lens radius (0: a pinhole).
     #[cfg(feature = "lens")]
     aperture: f32,
-    /// The distance of the plane in focus along `forward`.
+    /// aperture / focus: the largest slope of a lens ray against the
+    /// pinhole ray through the same film position
     #[cfg(feature = "lens")]
-    focus: f32,
+    slope: f32,
     /// right · aperture: the lens disk's first axis
     #[cfg(feature = "lens")]
     lens_u: Vec3,
     /// up · aperture: its second axis
     #[cfg(feature = "lens")]
     lens_v: Vec3,
+    /// right · slope: a lens position's turn of the direction, per unit
+    /// of its first coordinate
+    #[cfg(feature = "lens")]
+    turn_u: Vec3,
+    /// up · slope: the same for the second
+    #[cfg(feature = "lens")]
+    turn_v: Vec3,
 }
 
 impl Camera {
@@ -185,11 +193,15 @@ impl Camera {
             #[cfg(feature = "lens")]
             aperture: spec.aperture,
             #[cfg(feature = "lens")]
-            focus: spec.focus,
+            slope: spec.aperture / spec.focus,
             #[cfg(feature = "lens")]
             lens_u: right * spec.aperture,
             #[cfg(feature = "lens")]
             lens_v: up * spec.aperture,
+            #[cfg(feature = "lens")]
+            turn_u: right * (spec.aperture / spec.focus),
+            #[cfg(feature = "lens")]
+            turn_v: up * (spec.aperture / spec.focus),
         })
     }
 
@@ -239,7 +251,7 @@ impl Camera {
     pub fn view_cos(&self) -> f32 {
         #[cfg(feature = "lens")]
         if self.has_lens() {
-            let tan = (self.corner - self.forward).length() + self.aperture / self.focus;
+            let tan = (self.corner - self.forward).length() + self.slope;
             return 1.0 / math::sqrt(1.0 + tan * tan);
         }
         // forward is unit and orthogonal to the corner's film offset
@@ -259,14 +271,19 @@ impl Camera {
     /// to, uniformly over the lens disk ([`crate::material::concentric_disk`]).
     /// It aims at the point where the pinhole ray through (`fx`, `fy`) meets
     /// the plane of focus: the film direction `d` has a forward component of
-    /// exactly 1, so that point is `eye + focus · d`.
+    /// exactly 1, so that point is `eye + focus · d`, and the direction from
+    /// the lens position `eye + offset` is that of `d − offset / focus`
+    /// (scaled by `aperture / focus` rather than multiplied by the focus, so
+    /// that neither a distant nor a near focus overflows: the direction is
+    /// finite whenever that ratio is moderate).
     #[cfg(feature = "lens")]
     #[inline]
     pub fn lens_ray(&self, fx: f32, fy: f32, lens: [f32; 2]) -> Ray {
         let d = self.corner + self.dx * fx + self.dy * fy;
         let (a, b, _) = material::concentric_disk(lens[0], lens[1], false);
         let offset = self.lens_u * a + self.lens_v * b;
-        Ray::new(self.eye + offset, (d * self.focus - offset).normalize())
+        let turn = self.turn_u * a + self.turn_v * b;
+        Ray::new(self.eye + offset, (d - turn).normalize())
     }
 }
 
