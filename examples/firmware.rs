@@ -199,12 +199,12 @@ fn load_scene(slot: &'static mut FirmwareScene) -> Result<&'static FirmwareScene
     use micropt::{CameraSpec, Material, SceneBuilder, Vec3};
     let build = |slot: &mut FirmwareScene| -> Result<(), micropt::SceneError> {
         let mut b = SceneBuilder::<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>::new();
-        b.camera(CameraSpec {
-            eye: Vec3::new(0.5, 0.5, 0.98),
-            target: Vec3::new(0.5, 0.5, 0.0),
-            up: Vec3::new(0.0, 1.0, 0.0),
-            vfov_deg: 60.0,
-        })?;
+        b.camera(CameraSpec::pinhole(
+            Vec3::new(0.5, 0.5, 0.98),
+            Vec3::new(0.5, 0.5, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            60.0,
+        ))?;
         b.resolution(64, 64)?;
         let white = b.material(Material::Diffuse(Vec3::new(0.725, 0.71, 0.68)))?;
         let red = b.material(Material::Diffuse(Vec3::new(0.63, 0.065, 0.05)))?;

@@ -44,6 +44,12 @@
 //!   r at distance d from its centre sets below some point's horizon only if
 //!   d > R + r: smallpt's walls, balls of radius 1e5 that its lamp pokes
 //!   into, never hide it).
+//!
+//! A camera with a lens starts its rays anywhere on the lens disk: there
+//! "the camera" is the ball around the eye that holds the disk, and each
+//! rule above asks its question of the whole ball (on one side of a plane,
+//! inside or outside a sphere); a plane or sphere that the ball straddles
+//! simply decides nothing. A pinhole's ball is its eye.
 
 use crate::camera::CameraSpec;
 use crate::geometry::{ObjectId, Plane, Sphere, Vec3};
@@ -212,12 +218,16 @@ fn axis_plane(p: &Plane) -> Option<(usize, f32)> {
     found
 }
 
-/// [`Slabs`] of the opaque axis-aligned planes that do not pass through the
-/// eye, and the list of every other plane.
+/// [`Slabs`] of the opaque axis-aligned planes that do not pass within
+/// `reach` of the eye (through the lens), and the list of every other plane.
+/// A lens position's coordinate `e_k + o_k` with `|o_k| ≤ reach` rounds to at
+/// most the rounded `e_k + reach` (rounding is monotonic), so a plane beyond
+/// that bound has every camera ray's origin strictly on the eye's side.
 fn slabs<const P: usize>(
     planes: &[Plane],
     materials: &[Material],
     eye: Vec3,
+    reach: f32,
     other: &mut Vec<u16, P>,
 ) -> Slabs {
     let mut sl = Slabs::EMPTY;
@@ -236,10 +246,10 @@ fn slabs<const P: usize>(
         };
         let [hi, lo] = cs;
         let [ch_hi, ch_lo] = ch;
-        if c > ek && c < *hi {
+        if c > ek + reach && c < *hi {
             *hi = c;
             *ch_hi = Some(i);
-        } else if c < ek && c > *lo {
+        } else if c < ek - reach && c > *lo {
             *lo = c;
             *ch_lo = Some(i);
         }
@@ -287,16 +297,17 @@ fn sphere_outside(inner: &Sphere, outer: &Sphere) -> bool {
     d - inner.radius > outer.radius + tol
 }
 
-/// Point `p` strictly inside ball `s`.
-fn point_inside(p: Vec3, s: &Sphere) -> bool {
+/// Every point within `reach` of `p` strictly inside ball `s` (`reach` 0:
+/// the point itself).
+fn point_inside(p: Vec3, reach: f32, s: &Sphere) -> bool {
     let d = (p - s.center).length();
-    d < s.radius * (1.0 - MARGIN) - MARGIN * s.center.abs().max_component()
+    d + reach < s.radius * (1.0 - MARGIN) - MARGIN * s.center.abs().max_component()
 }
 
-/// Point `p` strictly outside ball `s`.
-fn point_outside(p: Vec3, s: &Sphere) -> bool {
+/// Every point within `reach` of `p` strictly outside ball `s`.
+fn point_outside(p: Vec3, reach: f32, s: &Sphere) -> bool {
     let d = (p - s.center).length();
-    d > s.radius * (1.0 + MARGIN) + MARGIN * s.center.abs().max_component()
+    d - reach > s.radius * (1.0 + MARGIN) + MARGIN * s.center.abs().max_component()
 }
 
 /// Analyses a scene's arrays (see the module docs) into `out`, every field
@@ -334,12 +345,18 @@ pub fn analyse_into<const S: usize, const P: usize>(
     view_order.clear();
     view_keys.clear();
     let eye = camera.eye;
-    // which side of each opaque plane the camera is on (0: on the plane)
+    // Where camera rays start: within `reach` of the eye (0 for a pinhole;
+    // the lens disk's radius with a margin for the rounding of a lens
+    // position). Every decision below about the camera's position holds for
+    // that whole ball, so a lens is "the camera" as the module docs say.
+    let reach = camera.aperture * (1.0 + MARGIN);
+    // which side of each opaque plane the camera is on (0: on the plane, or
+    // the lens reaches across it)
     let side = |pl: &Plane| {
         let (d, tol) = plane_distance(pl, eye);
-        if d > tol {
+        if d > tol + reach {
             1.0
-        } else if d < -tol {
+        } else if d < -tol - reach {
             -1.0
         } else {
             0.0
@@ -371,8 +388,8 @@ pub fn analyse_into<const S: usize, const P: usize>(
         let hidden_by_plane = opaque_planes().any(|p| light_behind(p, l));
         let hidden_by_sphere = opaque_spheres().any(|q| {
             !core::ptr::eq(q, l)
-                && ((point_inside(eye, q) && sphere_outside(l, q))
-                    || (point_outside(eye, q) && sphere_inside(l, q)))
+                && ((point_inside(eye, reach, q) && sphere_outside(l, q))
+                    || (point_outside(eye, reach, q) && sphere_inside(l, q)))
         });
         if !hidden_by_plane && !hidden_by_sphere {
             let _ = lights.push(i as u16);
@@ -392,7 +409,7 @@ pub fn analyse_into<const S: usize, const P: usize>(
         let the_only_light = lights.len() == 1 && lights.first() == Some(&(i as u16));
         let skip = the_only_light
             || is_opaque(materials, q.material)
-                && point_inside(eye, q)
+                && point_inside(eye, reach, q)
                 && reachable().all(|l| !core::ptr::eq(l, q) && sphere_inside(l, q));
         if !skip {
             let _ = shadow_spheres.push(i as u16);
@@ -400,21 +417,24 @@ pub fn analyse_into<const S: usize, const P: usize>(
     }
 
     // closedness
-    let in_sphere = opaque_spheres().any(|q| point_inside(eye, q));
+    let in_sphere = opaque_spheres().any(|q| point_inside(eye, reach, q));
     let closed = in_sphere || planes_enclose(planes, materials, &side);
 
-    // view culling keys
+    // view culling keys: every point of a lens ray lies within the lens
+    // radius of the ray from the eye in the same direction, so each sphere
+    // is grown by `reach` (`Camera::view_cos` widens the cone to match)
     let axis = (camera.target - eye).normalize();
     let mut order: Vec<(f32, u16), S> = Vec::new();
     for (i, s) in spheres.iter().enumerate() {
         let to_c = s.center - eye;
         let d = to_c.length();
-        let key = if !(d > s.radius * (1.0 + MARGIN)) {
+        let radius = s.radius + reach;
+        let key = if !(d > radius * (1.0 + MARGIN)) {
             2.0
         } else {
             let cos_t = to_c.dot(axis) / d;
             let sin_t = to_c.cross(axis).length() / d;
-            let sin_a = math::min(s.radius / d * (1.0 + MARGIN), 1.0);
+            let sin_a = math::min(radius / d * (1.0 + MARGIN), 1.0);
             let cos_a = math::safe_sqrt(1.0 - sin_a * sin_a);
             // angle to the centre minus the angular radius, as a cosine
             if sin_t * cos_a <= sin_a * cos_t && cos_t > 0.0 || sin_a >= 1.0 {
@@ -490,7 +510,7 @@ pub fn analyse_into<const S: usize, const P: usize>(
             }
         }
         for q in opaque_spheres() {
-            if core::ptr::eq(q, l) || !point_inside(eye, q) {
+            if core::ptr::eq(q, l) || !point_inside(eye, reach, q) {
                 continue;
             }
             let to_q = q.center - l.center;
@@ -535,11 +555,11 @@ pub fn analyse_into<const S: usize, const P: usize>(
         let d = (l.center - q.center).length();
         d > (q.radius + l.radius) * (1.0 - 1e-6)
     };
-    let eye_inside = |q: &Sphere| (eye - q.center).length() < q.radius * (1.0 - 1e-6);
+    let eye_inside = |q: &Sphere| (eye - q.center).length() + reach < q.radius * (1.0 - 1e-6);
     let horizon_spheres = spheres.iter().filter(|q| is_diffuse(q.material)).any(|q| {
         !(eye_inside(q) && emitting().all(|l| !core::ptr::eq(q, l) && !sets_inside(q, l)))
     });
-    *slabs_out = slabs(planes, materials, eye, other_planes);
+    *slabs_out = slabs(planes, materials, eye, reach, other_planes);
     listed(spheres, view_order, listed_view);
     listed(spheres, shadow_spheres, listed_shadow);
     *closed_out = closed;

@@ -1,4 +1,4 @@
-//! The scene text format v2 (docs/scene-format.md) → [`Scene`].
+//! The scene text format, version 2 (docs/scene-format.md) → [`Scene`].
 //!
 //! `no_std` and allocation-free: material names are borrowed from the input
 //! while parsing. Every error carries the 1-based line it was found on and
@@ -15,8 +15,9 @@ pub use decimal::{parse_f32, residual};
 
 /// Longest material name, in bytes.
 pub const MAX_NAME_LEN: usize = 32;
-/// Most whitespace-separated tokens a statement may have (camera has 11).
-const MAX_TOKENS: usize = 12;
+/// Most whitespace-separated tokens a statement may have (a camera with a
+/// lens has 13).
+const MAX_TOKENS: usize = 13;
 
 /// What is wrong with a scene file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -32,6 +33,12 @@ pub enum ParseErrorKind {
         /// Number of values the statement takes.
         expected: u8,
         /// Number of values found (capped at the token limit).
+        found: u8,
+    },
+    /// A `camera` statement with neither 10 values (a pinhole) nor 12 (with
+    /// a lens: APERTURE FOCUS).
+    CameraArgCount {
+        /// Number of values found (capped at 255).
         found: u8,
     },
     /// A value that is not a decimal number (or, for `resolution`, not a
@@ -80,6 +87,10 @@ impl core::fmt::Display for ParseError {
             ParseErrorKind::WrongArgCount { expected, found } => {
                 write!(f, "wrong number of values: expected {expected}, found {found}")
             }
+            ParseErrorKind::CameraArgCount { found } => write!(
+                f,
+                "wrong number of camera values: expected 10 (pinhole) or 12 (with APERTURE FOCUS), found {found}"
+            ),
             ParseErrorKind::NotANumber => f.write_str("value is not a number"),
             ParseErrorKind::NotFinite => f.write_str("value is not finite"),
             ParseErrorKind::BadName => {
@@ -159,8 +170,8 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
                 })
             }
         };
-        let nums = |range: core::ops::Range<usize>| -> Result<[f32; 10], ParseErrorKind> {
-            let mut out = [0.0; 10];
+        let nums = |range: core::ops::Range<usize>| -> Result<[f32; 12], ParseErrorKind> {
+            let mut out = [0.0; 12];
             for (o, t) in out.iter_mut().zip(args.get(range).unwrap_or(&[])) {
                 *o = number(t)?;
             }
@@ -169,16 +180,23 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
         let scene = ParseErrorKind::Scene;
         match head {
             "camera" => {
-                count(10)?;
-                let v = nums(0..10)?;
-                self.builder
-                    .camera(CameraSpec {
-                        eye: Vec3::new(v[0], v[1], v[2]),
-                        target: Vec3::new(v[3], v[4], v[5]),
-                        up: Vec3::new(v[6], v[7], v[8]),
-                        vfov_deg: v[9],
-                    })
-                    .map_err(scene)
+                let n = args.len();
+                if n != 10 && n != 12 {
+                    return Err(ParseErrorKind::CameraArgCount { found: n as u8 });
+                }
+                let v = nums(0..n)?;
+                let pinhole = CameraSpec::pinhole(
+                    Vec3::new(v[0], v[1], v[2]),
+                    Vec3::new(v[3], v[4], v[5]),
+                    Vec3::new(v[6], v[7], v[8]),
+                    v[9],
+                );
+                let spec = if n == 12 {
+                    pinhole.lens(v[10], v[11])
+                } else {
+                    pinhole
+                };
+                self.builder.camera(spec).map_err(scene)
             }
             "resolution" => {
                 count(2)?;
@@ -296,8 +314,9 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
         }
         if total > toks.len() {
             // too many tokens for any statement; report the count
+            let found = u8::try_from(total - 1).unwrap_or(u8::MAX);
             let expected = match toks.first().copied() {
-                Some("camera") => 10,
+                Some("camera") => return Err(ParseErrorKind::CameraArgCount { found }),
                 Some("resolution") => 2,
                 Some("background") => 3,
                 Some("material") => match toks.get(2).copied() {
@@ -311,7 +330,6 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
                 Some("plane") => 7,
                 _ => return Err(ParseErrorKind::UnknownStatement),
             };
-            let found = u8::try_from(total - 1).unwrap_or(u8::MAX);
             return Err(ParseErrorKind::WrongArgCount { expected, found });
         }
         self.statement(&toks)
@@ -440,6 +458,33 @@ mod tests {
         // a slot re-parsed with another scene holds only that one
         parse_into("camera 0 0 4 0 0 0 0 1 0 40\n", &mut slot).unwrap();
         assert!(slot.spheres().is_empty() && slot.lights().is_empty());
+    }
+
+    /// A lens camera in a build without the lens code is an error at the
+    /// camera's line; aperture 0 (the 12-value form) is a pinhole in every
+    /// build.
+    #[test]
+    fn lens_cameras_left_out_of_the_build_are_line_errors() {
+        let lens = parse("# depth of field\ncamera 0 0 4  0 0 0  0 1 0  40  0.1 4\n");
+        if cfg!(feature = "lens") {
+            let s = lens.unwrap();
+            assert_eq!((s.camera().aperture, s.camera().focus), (0.1, 4.0));
+        } else {
+            assert_eq!(
+                lens.err(),
+                Some(ParseError {
+                    line: 2,
+                    kind: ParseErrorKind::Scene(SceneError::Camera(
+                        crate::CameraError::LensNotBuilt
+                    )),
+                })
+            );
+        }
+        let pinhole = parse("camera 0 0 4  0 0 0  0 1 0  40  0 4\n").unwrap();
+        assert!(!pinhole.camera().has_lens());
+        let v1 = parse("camera 0 0 4  0 0 0  0 1 0  40\n").unwrap();
+        assert_eq!(pinhole.camera().eye, v1.camera().eye);
+        assert_eq!(pinhole.camera().vfov_deg, v1.camera().vfov_deg);
     }
 
     /// A scene with a material this build has no code for is an error at

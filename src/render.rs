@@ -4,11 +4,17 @@
 
 use crate::camera::{Camera, CameraError};
 use crate::film::Tile;
-use crate::geometry::Color;
+use crate::geometry::{Color, Ray};
 use crate::integrator::{self, Options, Stats};
-use crate::sampler::{PixelSampler, pixel_key_of, seed_key};
+use crate::sampler::{PixelSampler, SampleStream, pixel_key_of, seed_key};
 use crate::scene::bvh::BvhView;
 use crate::scene::{Scene, SceneView};
+
+/// The stratified pair of a sample's stream that places a lens camera's
+/// ray on the lens: the first pair the integrator does not use (0 is the
+/// film position, 1 the first bounce, 2 the first light sample), so a lens
+/// changes no other draw of a path.
+pub const LENS_PAIR: u32 = 3;
 
 /// Renders pixels of one scene at one image size.
 ///
@@ -123,12 +129,7 @@ impl<'a> Renderer<'a> {
         stats: &mut Stats,
     ) -> Color {
         let mut s = pixel.stream(index);
-        let [u, v] = if self.options.stratified {
-            s.stratified_2d(0)
-        } else {
-            s.next_2d()
-        };
-        let ray = self.camera.ray(x as f32 + u, y as f32 + v);
+        let ray = self.primary_ray(&mut s, x, y);
         let c = integrator::radiance(&self.scene, ray, &mut s, &self.options, stats);
         if c.is_finite() {
             c
@@ -136,6 +137,38 @@ impl<'a> Renderer<'a> {
             stats.nonfinite += 1;
             Color::ZERO
         }
+    }
+
+    /// The camera ray of sample `index` of pixel (x, y): the ray that
+    /// [`Renderer::sample`] traces first (to test the camera as it renders).
+    pub fn camera_ray(&self, x: u32, y: u32, index: u32) -> Ray {
+        let pixel = self.pixel_sampler(x, y);
+        self.primary_ray(&mut pixel.stream(index), x, y)
+    }
+
+    /// The camera ray of a sample from its stream: the film position from
+    /// the stream's pixel pair, and with a lens the lens position from
+    /// stratified pair [`LENS_PAIR`] (or the next two independent numbers
+    /// when unstratified, which only a lens draws). A pinhole draws exactly
+    /// what it drew before lenses existed, so its images are unchanged.
+    #[inline(always)]
+    fn primary_ray(&self, s: &mut SampleStream<'_>, x: u32, y: u32) -> Ray {
+        let [u, v] = if self.options.stratified {
+            s.stratified_2d(0)
+        } else {
+            s.next_2d()
+        };
+        let (fx, fy) = (x as f32 + u, y as f32 + v);
+        #[cfg(feature = "lens")]
+        if self.camera.has_lens() {
+            let lens = if self.options.stratified {
+                s.stratified_2d(LENS_PAIR)
+            } else {
+                s.next_2d()
+            };
+            return self.camera.lens_ray(fx, fy, lens);
+        }
+        self.camera.ray(fx, fy)
     }
 
     /// Adds samples `first .. first + count` of every pixel of `tile` to

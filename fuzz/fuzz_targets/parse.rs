@@ -4,7 +4,8 @@
 //! whatever bytes it is given"). Beyond not crashing, every outcome is
 //! checked for consistency: an error names a line that exists in the input
 //! and formats without panicking; an accepted scene holds only finite,
-//! in-range values (the validation really ran).
+//! in-range values (the validation really ran), and its camera (pinhole or
+//! thin lens) makes finite rays.
 #![no_main]
 
 use core::fmt::Write;
@@ -71,7 +72,31 @@ fuzz_target!(|data: &[u8]| {
             }
             let b = scene.background();
             assert!(b.is_finite() && b.x >= 0.0 && b.y >= 0.0 && b.z >= 0.0);
-            assert!(scene.camera().validate().is_ok());
+            let c = scene.camera();
+            assert!(c.validate().is_ok());
+            // the thin lens (format version 2): a radius >= 0, a focus > 0
+            assert!(c.aperture.is_finite() && c.aperture >= 0.0);
+            assert!(c.focus.is_finite() && c.focus > 0.0);
+            // and its rays, which never panic, are finite for values of
+            // sane magnitude (an aperture near f32::MAX overflows a lens
+            // position, an aperture / focus near it the direction: the
+            // renderer counts such samples as non-finite)
+            if let Ok(cam) = micropt::Camera::new(c, 7, 5) {
+                let r = if cam.has_lens() {
+                    cam.lens_ray(3.5, 2.5, [0.999, 0.001])
+                } else {
+                    cam.ray(3.5, 2.5)
+                };
+                let sane = |v: f32| v.abs() < 1e30;
+                let moderate = [c.eye, c.target]
+                    .iter()
+                    .all(|p| sane(p.x) && sane(p.y) && sane(p.z))
+                    && sane(c.aperture)
+                    && c.aperture / c.focus < 1e15;
+                if moderate {
+                    assert!(r.origin.is_finite() && r.dir.is_finite(), "{c:?}");
+                }
+            }
         }
     }
 });

@@ -153,7 +153,7 @@ struct FrameArgs {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// Scene file (format v1, docs/scene-format.md).
+    /// Scene file (format version 2, docs/scene-format.md).
     scene: PathBuf,
     /// Output file; the extension picks the format [default: SCENE-STEM.png].
     #[arg(short, long, value_name = "OUT")]

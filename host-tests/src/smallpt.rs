@@ -716,12 +716,8 @@ mod tests {
         let s = smallpt_scene();
         let c = s.camera;
         let f = |v: V3| micropt::Vec3::new(v.x as f32, v.y as f32, v.z as f32);
-        let spec = micropt::camera::CameraSpec {
-            eye: f(c.eye),
-            target: f(c.target),
-            up: f(c.up),
-            vfov_deg: c.vfov_deg as f32,
-        };
+        let spec =
+            micropt::camera::CameraSpec::pinhole(f(c.eye), f(c.target), f(c.up), c.vfov_deg as f32);
         let ours = Camera::new(&c, 64, 48);
         let theirs = micropt::camera::Camera::new(&spec, 64, 48).unwrap();
         for (fx, fy) in [

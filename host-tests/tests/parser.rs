@@ -1,4 +1,4 @@
-//! Scene format v2 parser: one test per error kind of docs/scene-format.md, each
+//! Scene format parser (version 2): one test per error kind of docs/scene-format.md, each
 //! checking the reported line (arbitrary-input property tests that no input
 //! panics are in `stress_parse.rs`).
 
@@ -29,6 +29,7 @@ fn all_shared_scenes_parse() {
         names,
         [
             "cornell",
+            "dof",
             "furnace",
             "gloss",
             "many",
@@ -116,13 +117,7 @@ fn wrong_number_of_values() {
     let e = err("camera 0 0 4 0 0 0 0 1 0\n");
     assert_eq!(
         (e.line, e.kind),
-        (
-            1,
-            ParseErrorKind::WrongArgCount {
-                expected: 10,
-                found: 9
-            }
-        )
+        (1, ParseErrorKind::CameraArgCount { found: 9 })
     );
     // far too many tokens is still a count error, not a panic
     let long = format!("sphere{}\n", " 1".repeat(500));
@@ -327,6 +322,86 @@ fn camera_errors() {
             ParseErrorKind::Scene(SceneError::Camera(CameraError::UpParallelToView))
         )
     );
+}
+
+/// Version 2's thin-lens camera: 12 values (APERTURE FOCUS after VFOV),
+/// both optional together; aperture 0 is the pinhole of the 10-value form.
+#[test]
+fn lens_camera() {
+    let s = parse("camera 0 0 4  0 0 0  0 1 0  40  0.25 3.5\n").unwrap();
+    let c = s.camera();
+    assert_eq!((c.aperture, c.focus, c.vfov_deg), (0.25, 3.5, 40.0));
+    assert!(c.has_lens());
+    // the 10-value form: a pinhole
+    let c = *parse(CAM).unwrap().camera();
+    assert!(!c.has_lens() && c.aperture == 0.0);
+    let c = *parse("camera 0 0 4  0 0 0  0 1 0  40  0 2\n")
+        .unwrap()
+        .camera();
+    assert!(!c.has_lens());
+    assert_eq!((c.aperture, c.focus), (0.0, 2.0));
+    // wrong counts, the 11-value one being an aperture without its focus
+    for (values, found) in [
+        (" 0.25", 11),
+        (" 0.25 3 1", 13),
+        (" 0.25 3 1 1 1 1 1 1 1 1", 20),
+    ] {
+        let e = err_after_camera(&format!("\ncamera 0 0 4  0 0 0  0 1 0  40{values}\n"));
+        assert_eq!(
+            (e.line, e.kind),
+            (3, ParseErrorKind::CameraArgCount { found }),
+            "{values}"
+        );
+        let msg = e.to_string();
+        assert!(
+            msg.starts_with("line 3: ") && msg.contains("expected 10 (pinhole) or 12"),
+            "{msg}"
+        );
+    }
+    let lens = |tail: &str| {
+        err(&format!(
+            "# a lens\ncamera 0 0 4  0 0 0  0 1 0  40  {tail}\n"
+        ))
+    };
+    for (tail, kind) in [
+        (
+            "-0.1 3",
+            ParseErrorKind::Scene(SceneError::Camera(CameraError::ApertureOutOfRange)),
+        ),
+        (
+            "-1e-30 3",
+            ParseErrorKind::Scene(SceneError::Camera(CameraError::ApertureOutOfRange)),
+        ),
+        (
+            "0.1 0",
+            ParseErrorKind::Scene(SceneError::Camera(CameraError::FocusOutOfRange)),
+        ),
+        (
+            "0.1 -3",
+            ParseErrorKind::Scene(SceneError::Camera(CameraError::FocusOutOfRange)),
+        ),
+        // a pinhole's focus must be valid too: FOCUS > 0 is the format's rule
+        (
+            "0 0",
+            ParseErrorKind::Scene(SceneError::Camera(CameraError::FocusOutOfRange)),
+        ),
+        ("nan 3", ParseErrorKind::NotFinite),
+        ("0.1 inf", ParseErrorKind::NotFinite),
+        ("1e39 3", ParseErrorKind::NotFinite),
+        ("0.1 1e39", ParseErrorKind::NotFinite),
+        ("0.1 f", ParseErrorKind::NotANumber),
+        ("wide 3", ParseErrorKind::NotANumber),
+    ] {
+        let e = lens(tail);
+        assert_eq!((e.line, e.kind), (2, kind), "{tail}");
+    }
+    for (tail, words) in [
+        ("-0.1 3", "aperture"),
+        ("0.1 0", "focus distance must be > 0"),
+    ] {
+        let msg = lens(tail).to_string();
+        assert!(msg.starts_with("line 2: ") && msg.contains(words), "{msg}");
+    }
 }
 
 #[test]

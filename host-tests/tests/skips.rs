@@ -22,7 +22,10 @@
 //! camera inside, outside or exactly on a wall), tilted planes, spheres of
 //! every material (nested, enclosing, straddling planes), and every image
 //! shape, under a non-zero background so that a ray escaping a scene the
-//! analysis called closed changes the image.
+//! analysis called closed changes the image. A third of the random cameras
+//! have a thin lens, whose rays start anywhere on the lens disk: the
+//! analysis must hold for the whole disk (which may reach across a wall or
+//! into a sphere).
 
 mod common;
 
@@ -344,6 +347,15 @@ fn random_scene(u: &[f64]) -> (String, u32, u32) {
     } else {
         (1 + (d.next() * 8.0) as u32, 1 + (d.next() * 8.0) as u32)
     };
+    // a thin lens on a third of the cameras (drawn last, so that the other
+    // scenes are those of the pinhole-only generator): small, as large as
+    // the box (reaching across walls and into spheres), or aperture 0
+    if d.chance(0.35) {
+        let aperture = d.pick(&[0.0f32, 0.01, 0.3, 1.0, 2.5]) * d.value(0.5, 1.5);
+        let focus = d.value(0.25, 8.0).max(0.25);
+        t.pop();
+        t += &format!("  {aperture} {focus}\n");
+    }
     (t, w, h)
 }
 
@@ -546,6 +558,75 @@ fn nested_spheres() {
     ] {
         check_text(&scene_text(objects, camera), 16, 12, 4);
     }
+}
+
+/// A lens reaching across a wall, out of a sphere, and toward a sphere
+/// that only rays from the lens' rim can hit (the pinhole's frustum misses
+/// it): the analysis decides for the whole lens, not for the eye.
+#[test]
+fn a_lens_across_walls_and_spheres() {
+    for camera in [
+        // inside the box, the lens reaching 0.2 through the front wall
+        "0 0 0.9  0 0 0  0 1 0  50  0.3 1.5",
+        // on the wall, looking in and out
+        "0 0 1  0 0 0  0 1 0  60  0.2 2",
+        "0 0 1  0 0 2  0 1 0  60  0.2 2",
+        // just outside the front wall, the lens reaching in
+        "0 0 1.05  0 0 0  0 1 0  60  0.1 1",
+        // a lens wider than the box
+        "0.2 0.1 0.5  0 0 0  0 1 0  40  3 1",
+    ] {
+        let text = scene_text(
+            &format!(
+                "{BOX}sphere 0 0 3  0.5  dim
+"
+            ),
+            camera,
+        );
+        check_text(&text, 16, 12, 4);
+    }
+    // inside a diffuse shell with a lamp, the lens poking out of the shell
+    let objects = "sphere 0 0 0  1  grey
+sphere 0 0.5 0  0.2  lamp
+sphere 0 0 -4  1  dim
+";
+    for camera in [
+        "0 0 0.9  0 0 0  0 1 0  60  0.05 1",
+        "0 0 0.9  0 0 0  0 1 0  60  0.3 1",
+    ] {
+        let text = scene_text(objects, camera);
+        let closed = parse(&text).unwrap().analysis().closed;
+        // the small lens stays inside the shell: closed; the large one is not
+        assert_eq!(closed, camera.contains("0.05"), "{camera}");
+        check_text(&text, 16, 12, 4);
+    }
+    // a narrow view down -z: the red ball beside the pinhole's frustum is
+    // culled for a pinhole, seen from the rim of a lens focused near
+    let objects = "sphere 0 0 -10  1  grey
+sphere 2.5 0 -10  0.5  red
+sphere 0 5 0  1  lamp
+";
+    let pinhole = parse(&scene_text(objects, "0 0 0  0 0 -1  0 1 0  10")).unwrap();
+    let r = Renderer::new(&pinhole, 16, 16).unwrap();
+    assert!(r.scene().primary_spheres.iter().all(|&i| i != 1));
+    let text = scene_text(objects, "0 0 0  0 0 -1  0 1 0  10  1.5 2");
+    let lens = parse(&text).unwrap();
+    let r = Renderer::new(&lens, 16, 16).unwrap();
+    assert!(r.scene().primary_spheres.contains(&1));
+    // and a camera ray does hit it: from the lens' rim toward the far side
+    let red = (0..16)
+        .flat_map(|y| (0..16).map(move |x| (x, y)))
+        .flat_map(|(x, y)| (0..16).map(move |k| (x, y, k)))
+        .any(|(x, y, k)| {
+            let ray = r.camera_ray(x, y, k);
+            let hit = r.scene().closest_hit(&ray, micropt::ObjectId::NONE);
+            hit.is_some_and(|h| h.object == micropt::ObjectId::sphere(1))
+        });
+    assert!(
+        red,
+        "no camera ray of the lens hits the ball beside the frustum"
+    );
+    check_text(&text, 16, 16, 16);
 }
 
 /// Regression (found by the random scenes): far from the origin, a wall and

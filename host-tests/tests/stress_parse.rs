@@ -24,6 +24,9 @@ const WORDS: &[&str] = &[
     "mirror",
     "glass",
     "light",
+    "metal",
+    "checker",
+    "0.001",
     "g",
     "lamp",
     "0",
@@ -56,15 +59,20 @@ fn line_strategy() -> impl Strategy<Value = String> {
 /// Near-valid scenes: a valid header, then random lines of format tokens.
 fn scene_strategy() -> impl Strategy<Value = Vec<u8>> {
     (
-        any::<bool>(),
+        0u8..3,
         proptest::collection::vec(line_strategy(), 0..12),
         any::<bool>(),
     )
         .prop_map(|(header, lines, newline)| {
             let mut s = String::new();
-            if header {
-                s.push_str("camera 0 0 4  0 0 0  0 1 0  40\nmaterial g diffuse 0.5 0.5 0.5\n");
-                s.push_str("material lamp light 1 1 1\n");
+            if header > 0 {
+                // a pinhole, or a thin lens (format version 2)
+                s.push_str(if header == 1 {
+                    "camera 0 0 4  0 0 0  0 1 0  40\n"
+                } else {
+                    "camera 0 0 4  0 0 0  0 1 0  40  0.1 4\n"
+                });
+                s.push_str("material g diffuse 0.5 0.5 0.5\nmaterial lamp light 1 1 1\n");
             }
             s.push_str(&lines.join("\n"));
             if newline {

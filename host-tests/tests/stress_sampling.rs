@@ -429,12 +429,12 @@ fn random_scene(u: &[f64]) -> Option<Scene> {
         scale_all * 4.0 * (0.1 + next()),
     ));
     let target = v3(scale(unit(next(), next()), scale_all * next()));
-    b.camera(CameraSpec {
+    b.camera(CameraSpec::pinhole(
         eye,
         target,
-        up: Vec3::new(0.0, 1.0, 0.0),
-        vfov_deg: 10.0 + 150.0 * next() as f32,
-    })
+        Vec3::new(0.0, 1.0, 0.0),
+        10.0 + 150.0 * next() as f32,
+    ))
     .ok()?;
     if next() < 0.5 {
         b.background(v3([next(), next(), next()])).ok()?;

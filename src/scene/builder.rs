@@ -73,6 +73,15 @@ impl core::fmt::Display for SceneError {
                 f.write_str("vertical field of view must be in (0, 180) degrees")
             }
             SceneError::Camera(CameraError::NotFinite) => f.write_str("camera value is not finite"),
+            SceneError::Camera(CameraError::ApertureOutOfRange) => {
+                f.write_str("camera aperture (lens radius) must be >= 0")
+            }
+            SceneError::Camera(CameraError::FocusOutOfRange) => {
+                f.write_str("camera focus distance must be > 0")
+            }
+            SceneError::Camera(CameraError::LensNotBuilt) => f.write_str(
+                "lens cameras (aperture > 0) are not in this build (enable micropt's `lens` cargo feature)",
+            ),
             SceneError::MaterialNotBuilt(kind) => {
                 f.write_str(kind)?;
                 f.write_str(" materials are not in this build (enable micropt's `")?;
@@ -245,7 +254,9 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         Ok(id)
     }
 
-    /// Sets the camera (exactly once).
+    /// Sets the camera (exactly once). A camera with a lens in a build
+    /// without the `lens` feature is refused
+    /// ([`CameraError::LensNotBuilt`]).
     pub fn camera(&mut self, spec: CameraSpec) -> Result<(), SceneError> {
         if self.camera.is_some() {
             return Err(SceneError::SecondCamera);
@@ -325,12 +336,12 @@ mod tests {
     use super::*;
 
     fn cam() -> CameraSpec {
-        CameraSpec {
-            eye: Vec3::new(0.0, 0.0, 5.0),
-            target: Vec3::ZERO,
-            up: Vec3::new(0.0, 1.0, 0.0),
-            vfov_deg: 45.0,
-        }
+        CameraSpec::pinhole(
+            Vec3::new(0.0, 0.0, 5.0),
+            Vec3::ZERO,
+            Vec3::new(0.0, 1.0, 0.0),
+            45.0,
+        )
     }
 
     #[test]
@@ -462,6 +473,34 @@ mod tests {
                 "glass materials are not in this build (enable micropt's `glass` cargo feature)"
             );
         }
+    }
+
+    /// A lens camera in a build without the lens code is refused, never
+    /// rendered as a pinhole; aperture 0 is a pinhole in every build.
+    #[test]
+    fn lens_cameras_need_the_lens_feature() {
+        let mut b: SceneBuilder = SceneBuilder::new();
+        let lens = b.camera(cam().lens(0.1, 5.0));
+        if cfg!(feature = "lens") {
+            assert!(lens.is_ok());
+        } else {
+            let e = SceneError::Camera(CameraError::LensNotBuilt);
+            assert_eq!(lens, Err(e));
+            let mut msg: heapless::String<128> = heapless::String::new();
+            core::fmt::Write::write_fmt(&mut msg, format_args!("{e}")).unwrap();
+            assert!(msg.contains("`lens` cargo feature"), "{msg}");
+        }
+        let mut b: SceneBuilder = SceneBuilder::new();
+        assert!(b.camera(cam().lens(0.0, 5.0)).is_ok());
+        let mut b: SceneBuilder = SceneBuilder::new();
+        assert_eq!(
+            b.camera(cam().lens(-0.1, 5.0)),
+            Err(SceneError::Camera(CameraError::ApertureOutOfRange))
+        );
+        assert_eq!(
+            b.camera(cam().lens(0.1, 0.0)),
+            Err(SceneError::Camera(CameraError::FocusOutOfRange))
+        );
     }
 
     #[test]

@@ -62,12 +62,12 @@ impl<const S: usize, const P: usize, const M: usize> Capacities<S, P, M> {
 /// let mut b: SceneBuilder = SceneBuilder::new();
 /// let grey = b.material(Material::Diffuse(Vec3::splat(0.5)))?;
 /// b.sphere(Vec3::ZERO, 1.0, grey)?;
-/// b.camera(CameraSpec {
-///     eye: Vec3::new(0.0, 0.0, 4.0),
-///     target: Vec3::ZERO,
-///     up: Vec3::new(0.0, 1.0, 0.0),
-///     vfov_deg: 40.0,
-/// })?;
+/// b.camera(CameraSpec::pinhole(
+///     Vec3::new(0.0, 0.0, 4.0),
+///     Vec3::ZERO,
+///     Vec3::new(0.0, 1.0, 0.0),
+///     40.0,
+/// ))?;
 /// b.background(Vec3::ONE)?;
 /// let scene: Scene = b.build()?;
 /// assert_eq!(scene.spheres().len(), 1);
@@ -109,6 +109,8 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
                 target: Vec3::ZERO,
                 up: Vec3::ZERO,
                 vfov_deg: 0.0,
+                aperture: 0.0,
+                focus: 0.0,
             },
             resolution: None,
         }

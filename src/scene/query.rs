@@ -474,12 +474,12 @@ mod tests {
     use crate::scene::{Scene, SceneBuilder};
 
     fn cam() -> CameraSpec {
-        CameraSpec {
-            eye: Vec3::new(0.0, 0.0, 5.0),
-            target: Vec3::ZERO,
-            up: Vec3::new(0.0, 1.0, 0.0),
-            vfov_deg: 45.0,
-        }
+        CameraSpec::pinhole(
+            Vec3::new(0.0, 0.0, 5.0),
+            Vec3::ZERO,
+            Vec3::new(0.0, 1.0, 0.0),
+            45.0,
+        )
     }
 
     #[test]
