@@ -12,8 +12,8 @@
 #   rv32imc     riscv32imc-unknown-none-elf   virt                      ESP32-C3 (160 MHz)
 #
 # Every scene runs at half its resolution (cornell 32x32, furnace 16x16,
-# sphere-over-plane 32x24), smallpt and spheres at a quarter (16x12, 24x16),
-# all at 16 spp but spheres (4 spp): the soft-float cores (M0, M3, RV32IMC)
+# sphere-over-plane 32x24), smallpt, spheres, many, gloss and dof at a
+# quarter (16x12, 24x16), all at 16 spp but spheres, many, gloss and dof (4 spp): the soft-float cores (M0, M3, RV32IMC)
 # execute 20-60 times the instructions of the FPU cores, and QEMU with the
 # plugin runs 50-100 M instructions a second. The same workload on every target, so the instructions per path
 # compare across them (the M4F's full-size figures are firmware.sh's). A
@@ -109,18 +109,20 @@ IDS=(cortex-m0 cortex-m3 cortex-m4f cortex-m7 cortex-m33 rv32imc)
 # `.ci/targets.sh [--bless] [ID...]`: only these targets
 if [ $# -gt 0 ]; then IDS=("$@"); fi
 # scenes that do not fit in the microbit's RAM (image + renderer + stack)
-MICROBIT_TOO_SMALL=" spheres "
+MICROBIT_TOO_SMALL=" spheres many "
 
 # scene -> image size and samples per pixel of the runs here: a fraction of
-# its resolution (a half; a quarter for the costliest, smallpt and spheres),
-# 16 spp (spheres 4)
+# its resolution (a half; a quarter for the costliest: smallpt, spheres,
+# many, gloss, dof), 16 spp (spheres, many, gloss and dof 4)
 plan_size() {
     local div=2
-    case $(basename "$1" .scene) in smallpt | spheres) div=4 ;; esac
+    case $(basename "$1" .scene) in smallpt | spheres | many | gloss | dof) div=4 ;; esac
     awk -v d="$div" '$1 == "resolution" { w = int($2 / d); h = int($3 / d); f = 1 }
          END { if (!f) { w = 32; h = 32 } if (w < 8) w = 8; if (h < 8) h = 8; print w "x" h }' "$1"
 }
-plan_spp() { if [ "$(basename "$1" .scene)" = spheres ]; then echo 4; else echo 16; fi; }
+plan_spp() {
+    case $(basename "$1" .scene) in spheres | many | gloss | dof) echo 4 ;; *) echo 16 ;; esac
+}
 
 # flash: the loaded sections (code, read-only data, the .data image, the
 # vector table); static RAM: .data + .bss + .uninit (not the stack)

@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use micropt::budget::MAX_SPP;
-use micropt::{AdaptiveOptions, Budget, Options, Skip};
+use micropt::{AdaptiveOptions, Budget, Options, Skip, Strategy};
 use micropt_host::bench;
 use micropt_host::image::{Image, OutputFormat};
 use micropt_host::metrics::{ZGroup, bias_z, compare};
@@ -181,6 +181,11 @@ struct RenderArgs {
     /// specialize, horizon, unreachable-lights, closed, slabs, windows, bvh, or all.
     #[arg(long, value_name = "LIST", value_parser = parse_skips)]
     no_skip: Option<Skip>,
+    /// Diagnostics: the estimator at non-delta vertices: mis (light and BSDF
+    /// sampling by the power heuristic, the default), light-only or
+    /// bsdf-only (each strategy alone, unbiased; to see what MIS buys).
+    #[arg(long, value_name = "NAME", value_parser = parse_strategy, default_value = "mis")]
+    strategy: Strategy,
     /// Diagnostics: give the scene a bounding volume hierarchy even if the
     /// analysis finds that it does not pay (to measure where it starts to).
     #[arg(long)]
@@ -267,6 +272,17 @@ fn parse_skips(s: &str) -> Result<Skip, String> {
     Ok(k)
 }
 
+fn parse_strategy(s: &str) -> Result<Strategy, String> {
+    match s {
+        "mis" => Ok(Strategy::Mis),
+        "light-only" => Ok(Strategy::LightOnly),
+        "bsdf-only" => Ok(Strategy::BsdfOnly),
+        other => Err(format!(
+            "unknown strategy '{other}' (mis, light-only, bsdf-only)"
+        )),
+    }
+}
+
 fn parse_exposure(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
@@ -344,6 +360,7 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
         threads: a.frame.threads.map_or(0, |t| t as usize),
         options: Options {
             skip: a.no_skip.unwrap_or(Skip::ALL),
+            strategy: a.strategy,
             ..Options::default()
         },
         adaptive: AdaptiveOptions {

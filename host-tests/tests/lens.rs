@@ -247,6 +247,19 @@ fn the_furnace_through_a_lens() {
 fn aperture_zero_is_the_pinhole_bit_for_bit() {
     for name in shipped_scenes() {
         let text = std::fs::read_to_string(scenes_dir().join(format!("{name}.scene"))).unwrap();
+        // the pinhole scenes (a scene with a lens already has 12 values)
+        let lens = text.lines().any(|l| {
+            let t: Vec<&str> = l
+                .split('#')
+                .next()
+                .unwrap_or("")
+                .split_whitespace()
+                .collect();
+            t.first() == Some(&"camera") && t.len() > 11
+        });
+        if lens {
+            continue;
+        }
         let zero: String = text
             .lines()
             .map(|l| {
