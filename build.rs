@@ -152,7 +152,9 @@ fn machine(riscv: bool) -> Result<&'static Machine, String> {
         None => match target.as_str() {
             "thumbv6m-none-eabi" => "microbit".into(),
             "thumbv7m-none-eabi" => "netduino2".into(),
-            "thumbv8m.main-none-eabihf" if env::var_os("CARGO_FEATURE_FIRMWARE_AN521").is_some() => {
+            "thumbv8m.main-none-eabihf"
+                if env::var_os("CARGO_FEATURE_FIRMWARE_AN521").is_some() =>
+            {
                 "mps2-an521".into()
             }
             "thumbv8m.main-none-eabihf" => "mps2-an505".into(),
