@@ -10,11 +10,12 @@
 //! its share of [`BUDGET`] with adaptive allocation. With
 //! `Budget::Spp(16)` the final image is the host's
 //! `micropt render scenes/cornell.scene --size 240x135 --spp 16 --seed 0`.
-//! The M0+ has no FPU: every float operation is a software routine
-//! (compiler-builtins': the HAL's `disable-intrinsics` feature keeps it from
-//! routing them to the boot ROM's faster ones, which flush subnormals to
-//! zero and so could change bits), so a frame is many times slower than on
-//! an M4F (docs/boards.md); a
+//! The M0+ has no FPU: every float operation is a software routine, micropt's
+//! correctly rounded ones (`micropt::math::soft`, exported under the
+//! runtime's names by `examples/board/softfloat.rs`; the HAL's
+//! `disable-intrinsics` feature keeps it from installing the boot ROM's,
+//! which flush subnormals to zero and so could change bits), so a frame is
+//! many times slower than on an M4F (docs/boards.md); a
 //! `Budget::Deadline(µs)` caps it instead, read from the RP2040's 1 MHz
 //! timer. One core renders (the RP2350 example splits tiles over two with
 //! atomic read-modify-write, which Armv6-M lacks).
@@ -42,6 +43,11 @@
 //! (or `picotool load -u -v -x -t elf` with the same file).
 #![no_std]
 #![no_main]
+
+// micropt's soft-float routines under the runtime's names (same bits as the
+// host, about half the instructions of compiler-builtins' on Armv6-M)
+#[path = "../../../board/softfloat.rs"]
+mod softfloat;
 
 use panic_halt as _;
 
