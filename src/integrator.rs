@@ -799,7 +799,7 @@ fn nee<const MANY: bool, const TREE: bool, B: Lobe>(
     let shadow = hit.spawn_on(n, ls.dir);
     let target = ObjectId::sphere(c.sphere);
     let blocked = if lists && MANY {
-        scene.occluded_outlined_in::<TREE>(&shadow, ls.dist, hit.object, target)
+        scene.occluded_outlined::<TREE>(&shadow, ls.dist, hit.object, target)
     } else if lists {
         scene.occluded_in::<TREE>(&shadow, ls.dist, hit.object, target)
     } else {
@@ -863,7 +863,7 @@ fn nee_window<const MANY: bool, const TREE: bool, B: Lobe>(
     let shadow = hit.spawn_on(n, dir);
     let target = ObjectId::sphere(c.sphere);
     let blocked = if lists {
-        scene.occluded_outlined_in::<TREE>(&shadow, dist, hit.object, target)
+        scene.occluded_outlined::<TREE>(&shadow, dist, hit.object, target)
     } else {
         scene.occluded_by_any(&shadow, dist, hit.object, target)
     };

@@ -347,24 +347,11 @@ impl<'a> SceneView<'a> {
         )
     }
 
-    /// [`SceneView::occluded`], not inlined: for the integrator's
+    /// [`SceneView::occluded_in`], not inlined: for the integrator's
     /// several-lights variant, where a second inlined copy of the test costs
     /// flash and, on the board, time (docs/bench.md).
     #[inline(never)]
-    pub fn occluded_outlined(
-        &self,
-        ray: &Ray,
-        t_max: f32,
-        from: ObjectId,
-        target: ObjectId,
-    ) -> bool {
-        self.occluded_in::<true>(ray, t_max, from, target)
-    }
-
-    /// [`SceneView::occluded_outlined`] compiled with the tree's query
-    /// (`TREE`) or without it (see [`SceneView::closest_hit_in`]).
-    #[inline(never)]
-    pub(crate) fn occluded_outlined_in<const TREE: bool>(
+    pub(crate) fn occluded_outlined<const TREE: bool>(
         &self,
         ray: &Ray,
         t_max: f32,
