@@ -35,6 +35,9 @@ pub struct Variant {
     pub options: Options,
     /// Worker threads (0: all cores).
     pub threads: usize,
+    /// Spread the budget where the estimated error is largest (the CLI's
+    /// default allocation: biased, consistent) instead of uniformly.
+    pub adaptive: bool,
 }
 
 /// The variants compared: the baseline (`mis`: MIS, stratified, exact math,
@@ -46,6 +49,7 @@ pub fn standard_variants() -> Vec<Variant> {
         description: description.into(),
         options,
         threads,
+        adaptive: false,
     };
     vec![
         v(
@@ -91,6 +95,16 @@ pub fn standard_variants() -> Vec<Variant> {
             1,
         ),
         v("all-cores", "baseline on all cores", base, 0),
+        Variant {
+            adaptive: true,
+            ..v(
+                "adaptive",
+                "the CLI's default allocation: samples where the estimated error is largest \
+                 (biased, consistent), 1 thread",
+                base,
+                1,
+            )
+        },
     ]
 }
 
@@ -330,28 +344,45 @@ pub fn run_one<const S: usize, const P: usize, const M: usize>(
     spp: u32,
     seed: u64,
 ) -> Result<Run, String> {
-    let job = RenderJob {
-        width: reference.width,
-        height: reference.height,
-        spp,
-        seed,
-        threads: variant.threads,
-        options: variant.options,
+    let (image, stats, threads, seconds, cpu_seconds) = if variant.adaptive {
+        let job = BudgetJob {
+            width: reference.width,
+            height: reference.height,
+            budget: Budget::Spp(spp),
+            seed,
+            threads: variant.threads,
+            options: variant.options,
+            adaptive: AdaptiveOptions::default(),
+        };
+        let cpu0 = process_cpu_seconds();
+        let out = render_budget(scene, &job, &|| {})?;
+        let cpu = process_cpu_seconds() - cpu0;
+        (out.image, out.stats, out.threads, out.seconds, cpu)
+    } else {
+        let job = RenderJob {
+            width: reference.width,
+            height: reference.height,
+            spp,
+            seed,
+            threads: variant.threads,
+            options: variant.options,
+        };
+        let cpu0 = process_cpu_seconds();
+        let out = render(scene, &job, &|| {})?;
+        let cpu = process_cpu_seconds() - cpu0;
+        (out.image, out.stats, out.threads, out.seconds, cpu)
     };
-    let cpu0 = process_cpu_seconds();
-    let out = render(scene, &job, &|| {})?;
-    let cpu1 = process_cpu_seconds();
-    let e = compare(&out.image, reference)?;
+    let e = compare(&image, reference)?;
     Ok(Run {
         scene: scene_name.to_owned(),
         variant: variant.name.clone(),
-        threads: out.threads,
+        threads,
         spp,
         seed,
-        seconds: out.seconds,
-        cpu_seconds: cpu1 - cpu0,
-        paths: out.stats.paths,
-        rays: out.stats.rays(),
+        seconds,
+        cpu_seconds,
+        paths: stats.paths,
+        rays: stats.rays(),
         mse: e.mse,
         rmse: e.rmse,
         rel_mse: e.rel_mse,

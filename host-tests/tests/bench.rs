@@ -76,3 +76,46 @@ fn missing_directories_are_named_in_the_error() {
         bench::discover_scenes(&root().join("scenes"), &root().join("no-such-dir")).unwrap_err();
     assert!(e.contains("no-such-dir"), "{e}");
 }
+
+/// The `adaptive` variant spends the same budget as the uniform baseline
+/// (the CLI's default allocation moves samples between pixels, not their
+/// total), and on the furnace, where every pixel has the same expected
+/// value and the same variance, it is not much worse than uniform
+/// allocation (what it loses there is the rounds' rounding and its floor).
+#[test]
+fn the_adaptive_variant_spends_the_same_budget() {
+    let scenes: Vec<_> =
+        bench::discover_scenes(&root().join("scenes"), &root().join("host-tests/data"))
+            .unwrap()
+            .into_iter()
+            .filter(|s| s.name == "furnace")
+            .collect();
+    let variants: Vec<_> = bench::standard_variants()
+        .into_iter()
+        .filter(|v| v.name == "adaptive" || v.name == "mis")
+        .collect();
+    assert_eq!(variants.len(), 2);
+    assert!(variants.iter().any(|v| v.adaptive && v.threads == 1));
+    let cfg = BenchConfig {
+        scenes,
+        variants,
+        spp: vec![16],
+        seeds: 4,
+    };
+    let runs = bench::run_all(&cfg, &mut |_| {}).unwrap();
+    assert_eq!(runs.len(), 8);
+    let mse = |name: &str| -> f64 {
+        runs.iter()
+            .filter(|r| r.variant == name)
+            .map(|r| {
+                assert_eq!(r.paths, 32 * 32 * 16, "{r:?}");
+                r.mse - r.ref_noise_mse
+            })
+            .sum()
+    };
+    let (adaptive, uniform) = (mse("adaptive"), mse("mis"));
+    assert!(
+        adaptive > 0.0 && adaptive < 1.5 * uniform,
+        "adaptive {adaptive:e} uniform {uniform:e}"
+    );
+}
