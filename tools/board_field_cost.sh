@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The board's cost of the bounding volume hierarchy against the number of
 # spheres: instructions per path of examples/firmware on random fields
-# (tools/field.py N), with the tree and with the list (docs/bvh.md,
-# "Cost against n", the board table).
+# (tools/field.py N), with the tree and with the list (docs/bvh.md, "On the
+# board").
 #
 # For each N a field of N spheres (tools/field.py N FIELD_SEED) is rendered by
 # the firmware twice, tree on and tree off:
@@ -15,8 +15,8 @@
 #
 # on QEMU's Cortex-M7 (mps2-an500, thumbv7em-none-eabihf: the M4F's code and
 # instruction counts) with all 4 MiB of its RAM
-# (examples/board/memory-mps2-an500-4m.x: 4,096 spheres need ~770 KB of
-# statics and ~230 KB of parse stack), at SIZE, Budget::Spp(SPP) adaptive
+# (examples/board/memory-mps2-an500-4m.x: 4,096 spheres need 786 KB of
+# statics and 232 KB of parse stack), at SIZE, Budget::Spp(SPP) adaptive
 # (the CLI's default), seed SEED, `-icount shift=0` with tools/qemu-icount.
 # Figures: render = instructions between the firmware's 3rd and 4th marks
 # (the budget executor: previews, refinement, tone mapping) divided by the
@@ -32,6 +32,7 @@
 #   bash tools/board_field_cost.sh 8 128          # only these fields
 #   SIZE=24x16 SPP=4 bash tools/board_field_cost.sh
 #   bash tools/board_field_cost.sh --table        # the table of the last run
+#   OUT=target/other bash tools/board_field_cost.sh 16 64   # elsewhere (default target/board-field)
 #
 # Needs what .ci/firmware.sh installs (qemu-system-arm, binutils, gcc, the
 # thumbv7em-none-eabihf target). Two firmware builds per field (fat LTO,
