@@ -40,6 +40,8 @@
 //!   | `MICROPT_FW_OUT`    | `firmware.rgb565` (host path, relative to QEMU's working directory) |
 //!   | `MICROPT_FW_CORES`  | `2` (cores sharing the render: `examples/dualcore.rs` only) |
 //!   | `MICROPT_FW_MACHINE`| the target's machine (table above) |
+//!   | `MICROPT_FW_MEMORY` | the machine's memory map (table above); another map of the same machine, relative to the package root or absolute (`memory-mps2-an500-4m.x`: all 4 MiB of the `mps2-an500`'s RAM, for scenes of thousands of spheres) |
+//!   | `MICROPT_FW_FORCE_BVH` | `0`; `1` builds the bounding volume hierarchy whatever the scene's size (as the host CLI's `--force-bvh`; `MICROPT_FW_SKIP_OFF=bvh` still leaves it unused) |
 //!
 //!   The scene's fixed capacities (spheres, planes, materials) are the counts
 //!   of those statements in the file, so the firmware's static RAM is what
@@ -68,8 +70,13 @@ fn main() {
         Ok(m) => m,
         Err(e) => panic!("firmware machine: {e}"),
     };
-    let memory = root.join(machine.memory);
+    // MICROPT_FW_MEMORY: another memory map for the same machine (e.g. more
+    // of its RAM, for a big scene); by default the machine's own
+    let memory = root.join(var("MICROPT_FW_MEMORY").unwrap_or_else(|| machine.memory.into()));
     println!("cargo:rerun-if-changed={}", memory.display());
+    if !memory.is_file() {
+        panic!("firmware memory map: no file {}", memory.display());
+    }
     println!("cargo:rerun-if-changed=memory.x");
     fs::copy(&memory, out.join("board-memory.x")).expect("copy the memory map to OUT_DIR");
     println!("cargo:rustc-link-search={}", out.display());
@@ -227,7 +234,12 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
     // a scene below the tree's threshold (analysis::TREE_MIN_SPHERES) never
     // gets a bounding volume hierarchy: leave its code out of the firmware
     // (about 4 KB of flash)
-    if spheres < 16 {
+    let force_bvh = match var("MICROPT_FW_FORCE_BVH").as_deref().map(str::trim) {
+        None | Some("0") => false,
+        Some("1") => true,
+        Some(s) => return Err(format!("MICROPT_FW_FORCE_BVH={s:?} is not 0 or 1")),
+    };
+    if spheres < 16 && !force_bvh {
         println!("cargo:rustc-cfg=micropt_no_bvh");
     }
     let (width, height) = match var("MICROPT_FW_SIZE") {
@@ -369,6 +381,10 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
          pub const SKIP: micropt::Skip = micropt::Skip {{ {skip_fields}}};\n\
          /// The skip switches, for the summary line.\n\
          pub const SKIP_LABEL: &str = {skip_label:?};\n\
+         /// Build the tree whatever the scene's size (the single-core\n\
+         /// firmware).\n\
+         #[allow(dead_code)] // only the single-core firmware reads it\n\
+         pub const FORCE_BVH: bool = {force_bvh};\n\
          /// Cores that share the render (the dual-core firmware).\n\
          #[allow(dead_code)] // only the dual-core firmware reads it\n\
          pub const CORES: usize = {cores};\n",

@@ -187,6 +187,7 @@ fn exit_with(result: Result<(), Error>) -> ! {
 #[inline(never)]
 fn load_scene(slot: &'static mut FirmwareScene) -> Result<&'static FirmwareScene, Error> {
     micropt::parse::parse_into(SCENE_TEXT, slot).map_err(Error::Parse)?;
+    force_tree(slot);
     Ok(slot)
 }
 
@@ -225,7 +226,19 @@ fn load_scene(slot: &'static mut FirmwareScene) -> Result<&'static FirmwareScene
         b.build_into(slot)
     };
     build(slot).map_err(Error::Scene)?;
+    force_tree(slot);
     Ok(slot)
+}
+
+/// With `MICROPT_FW_FORCE_BVH=1`, builds the bounding volume hierarchy of a
+/// scene the analysis left without one (below its threshold), as the host
+/// CLI's `--force-bvh`: to measure what the tree costs on a small scene.
+/// Nothing otherwise (a constant false: no code).
+#[inline(always)]
+fn force_tree(slot: &mut FirmwareScene) {
+    if config::FORCE_BVH && slot.bvh().is_empty() {
+        slot.set_bvh(true);
+    }
 }
 
 fn run(
