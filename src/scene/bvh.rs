@@ -13,10 +13,12 @@
 //!   operations, lane by lane (vector instructions where the target has
 //!   them). It is the binary surface-area tree collapsed: a node's children
 //!   are found by splitting, of its ranges, the one of largest box, until
-//!   there are four or none is left to split.
-//! * A leaf holds two or three spheres (one for a one-sphere scene); a
-//!   subtree for which the node storage has no room stays a leaf of all its
-//!   spheres (slower, the same answers).
+//!   there are four or none is left to split. A range of more than three
+//!   spheres becomes a node; smaller ones are leaves, themselves split
+//!   while the node has free lanes (which would be tested all the same): a
+//!   leaf holds one to three spheres. A subtree for which the node storage
+//!   has no room stays a leaf of all its spheres (slower, the same
+//!   answers).
 //! * The closest-hit query returns exactly what a loop over the list in
 //!   order returns: the smallest ray parameter, and of equal ones the sphere
 //!   first in the list (the loop accepts only a strictly nearer hit). The
@@ -267,15 +269,19 @@ impl<const S: usize> Bvh<S> {
             p.depth,
             self.range_box(spheres, p.start, p.end),
         ));
+        // a child of more than 3 spheres becomes a node
         let splits = |k: &(u16, u16, u16, Aabb)| k.1 - k.0 > 3 && k.2 < MAX_DEPTH;
         while !kids.is_full() {
-            // the splittable child of largest box (the first of equal ones)
+            // the child of largest box among those of more than 3 spheres,
+            // else among those of 2 or 3 (the first of equal ones): lanes
+            // left free would be tested all the same, so small leaves are
+            // split too
             let mut pick = None;
-            let mut area = f32::NEG_INFINITY;
+            let mut best = (false, f32::NEG_INFINITY);
             for (i, k) in kids.iter().enumerate() {
-                let a = half_area(&k.3);
-                if splits(k) && a > area {
-                    (pick, area) = (Some(i), a);
+                let key = (splits(k), half_area(&k.3));
+                if k.1 - k.0 >= 2 && k.2 < MAX_DEPTH && key > best {
+                    (pick, best) = (Some(i), key);
                 }
             }
             let Some((i, (s, e, d))) = pick.and_then(|i| kids.get(i).map(|k| (i, (k.0, k.1, k.2))))
@@ -372,6 +378,8 @@ impl<const S: usize> Bvh<S> {
         if depth >= SAH_DEPTH || !(width > 0.0) {
             return middle;
         }
+        // parts of at least 2 spheres (1 when splitting a leaf's 2 or 3)
+        let least = if count > 3 { 2 } else { 1 };
         let scale = BINS as f32 * (1.0 - 1.0 / 1024.0) / width;
         let bin = |l: &Listed| {
             let b = ((coord(l.sphere.center, k) - cmin) * scale) as usize;
@@ -398,7 +406,7 @@ impl<const S: usize> Bvh<S> {
                 cnt += c;
             }
             if let Some(rc) = right_cost.get_mut(j) {
-                *rc = if cnt >= 2 {
+                *rc = if cnt >= least {
                     half_area(&acc) * cnt as f32
                 } else {
                     f32::INFINITY
@@ -413,7 +421,7 @@ impl<const S: usize> Bvh<S> {
                 cnt += c;
             }
             let rc = right_cost.get(j).copied().unwrap_or(f32::INFINITY);
-            if cnt >= 2 {
+            if cnt >= least {
                 let cost = half_area(&acc) * cnt as f32 + rc;
                 if cost < best_cost {
                     best_cost = cost;
@@ -561,10 +569,10 @@ impl BvhView<'_> {
                             near = (i, c.1);
                         }
                     }
-                    if let Some(last) = fresh.len().checked_sub(1)
-                        && near.0 < last
+                    if let Some((top, rest)) = fresh.split_last_mut()
+                        && let Some(n) = rest.get_mut(near.0)
                     {
-                        fresh.swap(near.0, last);
+                        core::mem::swap(n, top);
                     }
                 }
             }
