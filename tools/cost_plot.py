@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Log-log plot (SVG, no dependencies) of instructions per ray against the
 number of spheres, with and without the tree: tools/cost_plot.py CSV > SVG
-(CSV columns: spheres, tree_per_ray, list_per_ray)."""
+(CSV columns: spheres, tree_per_ray, list_per_ray, and optionally
+binary_tree_per_ray: the binary tree the 4-wide one replaced)."""
 import csv
 import math
 import sys
@@ -33,12 +34,15 @@ for e in range(3, 6):
     out.append(f'<text x="{L - 6}" y="{py(v) + 4:.1f}" text-anchor="end">{v}</text>')
 out.append(f'<text x="{(L + W - R) / 2}" y="{H - 12}" text-anchor="middle">spheres (log)</text>')
 out.append(f'<text x="16" y="{(T + H - B) / 2}" text-anchor="middle" transform="rotate(-90 16 {(T + H - B) / 2})">instructions per ray (log)</text>')
-for key, colour, label in [("list_per_ray", "#c33", "loop over the list"), ("tree_per_ray", "#36c", "bounding volume hierarchy")]:
+series = [("list_per_ray", "#c33", "loop over the list"), ("tree_per_ray", "#36c", "bounding volume hierarchy (4-wide)")]
+if "binary_tree_per_ray" in rows[0]:
+    series.append(("binary_tree_per_ray", "#9ac", "binary tree (before)"))
+for key, colour, label in series:
     pts = " ".join(f"{px(float(r['spheres'])):.1f},{py(float(r[key])):.1f}" for r in rows)
     out.append(f'<polyline points="{pts}" fill="none" stroke="{colour}" stroke-width="2"/>')
     for r in rows:
         out.append(f'<circle cx="{px(float(r["spheres"])):.1f}" cy="{py(float(r[key])):.1f}" r="3" fill="{colour}"/>')
-    y = T + 20 if key == "list_per_ray" else T + 38
+    y = T + 20 + 18 * [k for k, _, _ in series].index(key)
     out.append(f'<line x1="{L + 20}" y1="{y - 4}" x2="{L + 44}" y2="{y - 4}" stroke="{colour}" stroke-width="2"/>')
     out.append(f'<text x="{L + 50}" y="{y}">{label}</text>')
 out.append("</svg>")
