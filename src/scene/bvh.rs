@@ -546,46 +546,48 @@ impl BvhView<'_> {
         let mut stack: Vec<(u32, f32), STACK> = Vec::new();
         let mut node = 0usize;
         loop {
+            // the nearest child met goes next, the others wait (in lane
+            // order)
+            let mut next = None;
             if let Some([x, y, z, l]) = self.parts.get(node..node + PARTS) {
                 let (t0, mask) = br.enter(x, y, z, t_ask);
-                // the children met, the nearest on top (the others in
-                // lane order); the mask is read as a whole (its lowest bit
-                // each time)
-                let base = stack.len();
+                // the mask is read as a whole (its lowest bit each time)
                 let mut bits = mask;
+                let mut t_next = f32::INFINITY;
                 while bits != 0 {
                     let k = bits.trailing_zeros() as usize & (WIDE - 1);
                     bits &= bits - 1;
                     let (r, t) = (link(l, k), t0.get(k).copied().unwrap_or(0.0));
+                    if r == 0 {
+                        continue;
+                    }
                     // at most three waiting children per node of the path
-                    if r != 0 {
+                    if t < t_next {
+                        if let Some(n) = next {
+                            let _ = stack.push((n, t_next));
+                        }
+                        (next, t_next) = (Some(r), t);
+                    } else {
                         let _ = stack.push((r, t));
                     }
                 }
-                if let Some(fresh) = stack.get_mut(base..) {
-                    let mut near = (0, f32::INFINITY);
-                    for (i, c) in fresh.iter().enumerate() {
-                        if c.1 < near.1 {
-                            near = (i, c.1);
-                        }
-                    }
-                    if let Some((top, rest)) = fresh.split_last_mut()
-                        && let Some(n) = rest.get_mut(near.0)
-                    {
-                        core::mem::swap(n, top);
-                    }
-                }
             }
-            // the nearest waiting child that can still hold a nearer hit:
-            // a leaf is tested here, an inner node opened
+            // that child, else the nearest waiting one that can still hold
+            // a nearer hit: a leaf is tested here, an inner node opened
             loop {
-                let Some((r, t)) = stack.pop() else {
-                    *t_max = t_best;
-                    return hit;
+                let r = match next.take() {
+                    Some(r) => r,
+                    None => {
+                        let Some((r, t)) = stack.pop() else {
+                            *t_max = t_best;
+                            return hit;
+                        };
+                        if !(t <= t_ask * SLACK) {
+                            continue;
+                        }
+                        r
+                    }
                 };
-                if !(t <= t_ask * SLACK) {
-                    continue;
-                }
                 let (s, count) = ((r & 0xffff) as usize, (r >> 16) as usize);
                 if count == 0 {
                     node = s;
