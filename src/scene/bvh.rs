@@ -10,8 +10,10 @@
 //! * The tree is 4-wide: a node holds the boxes of its (up to) four
 //!   children, axis by axis (four lower and four upper bounds of each axis
 //!   side by side), so that one visit tests the four boxes with the same
-//!   operations, lane by lane (vector instructions where the target has
-//!   them). It is the binary surface-area tree collapsed: a node's children
+//!   operations, lane by lane, and the ray's direction picks whole rows of
+//!   bounds. (The lanes are computed one by one: the boards have no vector
+//!   unit, and the host build turns LLVM's SLP vectoriser off.) It is the
+//!   binary surface-area tree collapsed: a node's children
 //!   are found by splitting, of its ranges, the one of largest box, until
 //!   there are four or none is left to split. A range of more than three
 //!   spheres becomes a node; smaller ones are leaves, themselves split
