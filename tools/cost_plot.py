@@ -4,7 +4,9 @@ number of spheres, with and without the tree: tools/cost_plot.py CSV
 [BOARD_CSV] > SVG (CSV columns: spheres, tree_per_ray, list_per_ray: the
 host's callgrind figures; BOARD_CSV, optional, columns spheres,
 tree_per_path, list_per_path: the board's instructions per path from
-tools/board_field_cost.sh, drawn dashed with open points)."""
+tools/board_field_cost.sh, drawn dashed with open points; the CSV's
+optional column binary_tree_per_ray: the binary tree the 4-wide one
+replaced)."""
 import csv
 import math
 import sys
@@ -40,10 +42,11 @@ out.append(f'<text x="{(L + W - R) / 2}" y="{H - 12}" text-anchor="middle">spher
 ylabel = "instructions per ray, host (per path, board) (log)" if board else "instructions per ray (log)"
 out.append(f'<text x="16" y="{(T + H - B) / 2}" text-anchor="middle" transform="rotate(-90 16 {(T + H - B) / 2})">{ylabel}</text>')
 series = [(rows, "list_per_ray", "#c33", "loop over the list", ""),
-          (rows, "tree_per_ray", "#36c", "bounding volume hierarchy", "")]
+          (rows, "tree_per_ray", "#36c", "bounding volume hierarchy (4-wide)", "")]
+if "binary_tree_per_ray" in rows[0]:
+    series.append((rows, "binary_tree_per_ray", "#9ac", "binary tree (before)", ""))
 if board:
-    series[0] = (rows, "list_per_ray", "#c33", "loop over the list (host, per ray)", "")
-    series[1] = (rows, "tree_per_ray", "#36c", "bounding volume hierarchy (host, per ray)", "")
+    series = [(d, k, c, lab + " (host, per ray)", s) for d, k, c, lab, s in series]
     series += [(board, "list_per_path", "#c33", "loop over the list (board, per path)", "6,4"),
                (board, "tree_per_path", "#36c", "bounding volume hierarchy (board, per path)", "6,4")]
 for i, (data, key, colour, label, dash) in enumerate(series):

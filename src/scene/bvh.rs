@@ -7,8 +7,20 @@
 //! scene's sphere capacity) and is a pure function of the list, so host and
 //! board build the same tree.
 //!
-//! * Every leaf holds at least two spheres (unless the scene has one), so a
-//!   tree over `n` spheres has at most `n − 1` nodes: `S` of them fit.
+//! * The tree is 4-wide: a node holds the boxes of its (up to) four
+//!   children, axis by axis (four lower and four upper bounds of each axis
+//!   side by side), so that one visit tests the four boxes with the same
+//!   operations, lane by lane, and the ray's direction picks whole rows of
+//!   bounds. (The lanes are computed one by one: the boards have no vector
+//!   unit, and the host build turns LLVM's SLP vectoriser off.) It is the
+//!   binary surface-area tree collapsed: a node's children
+//!   are found by splitting, of its ranges, the one of largest box, until
+//!   there are four or none is left to split. A range of more than three
+//!   spheres becomes a node; smaller ones are leaves, themselves split
+//!   while the node has free lanes (which would be tested all the same): a
+//!   leaf holds one to three spheres. A subtree for which the node storage
+//!   has no room stays a leaf of all its spheres (slower, the same
+//!   answers).
 //! * The closest-hit query returns exactly what a loop over the list in
 //!   order returns: the smallest ray parameter, and of equal ones the sphere
 //!   first in the list (the loop accepts only a strictly nearer hit). The
@@ -36,35 +48,55 @@ const BINS: usize = 12;
 /// Item flag: the sphere cannot block a shadow ray toward a reachable light
 /// (not in the analysis' occluder list).
 const NOT_SHADOW: u16 = 0x8000;
-/// Nodes deeper than this are split at the middle of their range, whatever
-/// the heuristic says, so that the tree's depth stays below [`STACK`].
+/// Ranges deeper than this (in the binary tree the 4-wide one collapses)
+/// are split at their middle, whatever the heuristic says.
 const SAH_DEPTH: u16 = 40;
-/// Traversal stack entries: more than the depth of any tree built here
-/// ([`SAH_DEPTH`] plus halvings of at most 2¹⁵ spheres).
-const STACK: usize = 64;
-/// Ranges waiting to be built: the builder continues with the smaller half
-/// of each split, so at most log₂ n ranges wait.
-const PENDING: usize = 32;
+/// Ranges this deep in the binary tree are leaves, so that no path of the
+/// 4-wide tree has more nodes (middle splits from [`SAH_DEPTH`] on reach
+/// leaves of at most 3 of 2¹⁵ spheres 15 levels further: never needed).
+const MAX_DEPTH: u16 = 64;
+/// Entries of the traversal stacks and of the builder's pending ranges: a
+/// depth-first walk keeps at most three waiting children of every node on
+/// its path, and the four of the node it opened last.
+const STACK: usize = 3 * MAX_DEPTH as usize + 4;
+/// Lanes of a node.
+const WIDE: usize = 4;
+/// Storage units of a node: the lanes of the three axes and the links.
+const PARTS: usize = 4;
 
-/// A node of the tree: its box and either its children or its spheres.
+/// One storage unit of a node: the four children's lower (`b[0]`) and upper
+/// (`b[1]`) bounds along one axis, or (the node's fourth unit) the
+/// children's links.
+///
+/// A link is a `u32` kept in the bits of a lane of `b[0]`
+/// ([`f32::from_bits`]: copied, never computed with): 0 for an empty lane,
+/// an inner child's storage index (a multiple of [`PARTS`], never 0: the
+/// root is not a child), or a leaf's first item plus its item count times
+/// 2¹⁶.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Node {
-    /// Lower corner of the box.
-    pub lo: [f32; 3],
-    /// Upper corner of the box.
-    pub hi: [f32; 3],
-    /// An inner node: the index of its second child (the first is the next
-    /// node). A leaf: the index of its first item.
-    pub index: u16,
-    /// A leaf: its number of items (≥ 1). An inner node: 0.
-    pub count: u16,
+struct Lanes {
+    b: [[f32; WIDE]; 2],
+}
+
+/// A lane without a box: no ray meets it.
+const EMPTY_LANES: Lanes = Lanes {
+    b: [[f32::INFINITY; WIDE], [f32::NEG_INFINITY; WIDE]],
+};
+
+/// A box: lower and upper corners.
+type Aabb = ([f32; 3], [f32; 3]);
+
+/// The link of a leaf of items `start..end`.
+fn leaf_link(start: u16, end: u16) -> u32 {
+    u32::from(start) | u32::from(end - start) << 16
 }
 
 /// The tree over a scene's listed spheres (see the module docs), with room
 /// for `S` spheres.
 #[derive(Clone, Debug)]
 pub struct Bvh<const S: usize> {
-    nodes: Vec<Node, S>,
+    /// The nodes, [`PARTS`] units each; the root first.
+    parts: Vec<Lanes, S>,
     /// Positions in the sphere list (with [`NOT_SHADOW`]), leaf by leaf.
     items: Vec<u16, S>,
     depth: u16,
@@ -73,8 +105,22 @@ pub struct Bvh<const S: usize> {
 /// A borrowed [`Bvh`], independent of its capacity: what the queries use.
 #[derive(Clone, Copy, Debug)]
 pub struct BvhView<'a> {
-    nodes: &'a [Node],
+    parts: &'a [Lanes],
     items: &'a [u16],
+}
+
+/// A range of items waiting to become a node.
+#[derive(Clone, Copy)]
+struct Pending {
+    start: u16,
+    end: u16,
+    /// Depth in the binary tree (the root's range: 1).
+    depth: u16,
+    /// Depth in the 4-wide tree (the root: 1).
+    wide_depth: u16,
+    /// Where its link goes: storage unit times [`WIDE`] plus lane
+    /// (`u32::MAX`: the root).
+    slot: u32,
 }
 
 /// The box of a sphere, widened by [`PAD`].
@@ -128,29 +174,30 @@ impl<const S: usize> Default for Bvh<S> {
 impl<const S: usize> Bvh<S> {
     /// No tree (all zero bits).
     pub const EMPTY: Self = Self {
-        nodes: Vec::new(),
+        parts: Vec::new(),
         items: Vec::new(),
         depth: 0,
     };
 
     /// Drops the tree.
     pub fn clear(&mut self) {
-        self.nodes.clear();
+        self.parts.clear();
         self.items.clear();
         self.depth = 0;
     }
 
     /// Number of nodes (0: no tree).
     pub fn len(&self) -> usize {
-        self.nodes.len()
+        self.parts.len() / PARTS
     }
 
     /// Whether there is no tree.
     pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty()
+        self.parts.is_empty()
     }
 
-    /// Number of nodes on the longest path from the root to a leaf.
+    /// Number of nodes on the longest path from the root to a leaf's
+    /// parent.
     pub fn depth(&self) -> u16 {
         self.depth
     }
@@ -158,8 +205,8 @@ impl<const S: usize> Bvh<S> {
     /// The tree borrowed, or `None` if there is none.
     pub fn view(&self) -> Option<BvhView<'_>> {
         // a firmware built without the tree's code has none
-        (!cfg!(micropt_no_bvh) && !self.nodes.is_empty()).then_some(BvhView {
-            nodes: &self.nodes,
+        (!cfg!(micropt_no_bvh) && !self.parts.is_empty()).then_some(BvhView {
+            parts: &self.parts,
             items: &self.items,
         })
     }
@@ -167,12 +214,12 @@ impl<const S: usize> Bvh<S> {
     /// Builds the tree over `spheres` (replacing any previous one); the
     /// spheres whose index is not in `shadow` (ascending scene indices: the
     /// analysis' occluder list) are marked as never blocking a shadow ray.
-    /// No tree is built for an empty list or one of more than 2¹⁵ − 1
-    /// spheres.
+    /// No tree is built for an empty list, one of more than 2¹⁵ − 1
+    /// spheres, or a capacity below one node.
     pub fn build(&mut self, spheres: &[Listed], shadow: &[u16]) {
         self.clear();
         let n = spheres.len();
-        if n == 0 || n >= NOT_SHADOW as usize || n > S {
+        if n == 0 || n >= NOT_SHADOW as usize || n > S || S < PARTS {
             return;
         }
         for (p, l) in spheres.iter().enumerate() {
@@ -183,70 +230,142 @@ impl<const S: usize> Bvh<S> {
             // n ≤ S items
             let _ = self.items.push(p as u16 | flag);
         }
-        // (start, end, parent node or u16::MAX, depth)
-        let mut pending: Vec<(u16, u16, u16, u16), PENDING> = Vec::new();
-        let mut range = (0u16, n as u16, u16::MAX, 1u16);
-        loop {
-            let (start, end, parent, depth) = range;
-            let me = self.nodes.len() as u16;
-            if let Some(p) = self.nodes.get_mut(parent as usize) {
-                p.index = me;
-            }
-            self.depth = self.depth.max(depth);
-            let split = self.make_node(spheres, start, end, depth, pending.is_full());
-            match split {
-                Some(mid) => {
-                    // continue with the smaller half as the first child
-                    let (small, large) = if mid - start <= end - mid {
-                        ((start, mid), (mid, end))
-                    } else {
-                        ((mid, end), (start, mid))
-                    };
-                    let _ = pending.push((large.0, large.1, me, depth + 1));
-                    range = (small.0, small.1, u16::MAX, depth + 1);
-                }
-                None => match pending.pop() {
-                    Some(r) => range = r,
-                    None => break,
-                },
-            }
+        let mut pending: Vec<Pending, STACK> = Vec::new();
+        let mut next = Some(Pending {
+            start: 0,
+            end: n as u16,
+            depth: 1,
+            wide_depth: 1,
+            slot: u32::MAX,
+        });
+        while let Some(p) = next.take().or_else(|| pending.pop()) {
+            self.make_node(spheres, p, &mut pending);
         }
     }
 
-    /// Appends the node of items `start..end`, and partitions them if it is
-    /// an inner node: returns where its second half starts (`None`: a leaf).
-    fn make_node(
-        &mut self,
-        spheres: &[Listed],
-        start: u16,
-        end: u16,
-        depth: u16,
-        leaf_only: bool,
-    ) -> Option<u16> {
+    /// Writes `link` into the lane `slot` (see [`Pending::slot`]).
+    fn set_link(&mut self, slot: u32, link: u32) {
+        let (unit, lane) = ((slot / WIDE as u32) as usize, (slot % WIDE as u32) as usize);
+        if let Some(l) = self.parts.get_mut(unit).and_then(|u| u.b[0].get_mut(lane)) {
+            *l = f32::from_bits(link);
+        }
+    }
+
+    /// Appends the node of the range `p` (its children: up to four ranges
+    /// split from it, the range itself if it is a leaf) and queues its inner
+    /// children; without room for the node, the range becomes a leaf of its
+    /// parent.
+    fn make_node(&mut self, spheres: &[Listed], p: Pending, pending: &mut Vec<Pending, STACK>) {
+        let me = self.parts.len();
+        if S - me < PARTS {
+            self.set_link(p.slot, leaf_link(p.start, p.end));
+            return;
+        }
+        self.set_link(p.slot, me as u32);
+        self.depth = self.depth.max(p.wide_depth);
+        // children: (start, end, binary depth, box, whether it can split)
+        let mut kids: Vec<(u16, u16, u16, Aabb), WIDE> = Vec::new();
+        let _ = kids.push((
+            p.start,
+            p.end,
+            p.depth,
+            self.range_box(spheres, p.start, p.end),
+        ));
+        // a child of more than 3 spheres becomes a node
+        let splits = |k: &(u16, u16, u16, Aabb)| k.1 - k.0 > 3 && k.2 < MAX_DEPTH;
+        while !kids.is_full() {
+            // the child of largest box among those of more than 3 spheres,
+            // else among those of 2 or 3 (the first of equal ones): lanes
+            // left free would be tested all the same, so small leaves are
+            // split too
+            let mut pick = None;
+            let mut best = (false, f32::NEG_INFINITY);
+            for (i, k) in kids.iter().enumerate() {
+                let key = (splits(k), half_area(&k.3));
+                if k.1 - k.0 >= 2 && k.2 < MAX_DEPTH && key > best {
+                    (pick, best) = (Some(i), key);
+                }
+            }
+            let Some((i, (s, e, d))) = pick.and_then(|i| kids.get(i).map(|k| (i, (k.0, k.1, k.2))))
+            else {
+                break;
+            };
+            let mid = self.split(spheres, s, e, d);
+            let (bl, br) = (
+                self.range_box(spheres, s, mid),
+                self.range_box(spheres, mid, e),
+            );
+            if let Some(k) = kids.get_mut(i) {
+                *k = (s, mid, d + 1, bl);
+            }
+            let _ = kids.push((mid, e, d + 1, br));
+        }
+        let mut axes = [EMPTY_LANES; 3];
+        let mut links = Lanes {
+            b: [[0.0; WIDE]; 2],
+        };
+        let base = (me + PARTS - 1) as u32 * WIDE as u32;
+        for (lane, k) in kids.iter().enumerate() {
+            let (lo, hi) = k.3;
+            for (a, (l, h)) in axes.iter_mut().zip(lo.into_iter().zip(hi)) {
+                let [al, ah] = &mut a.b;
+                if let (Some(al), Some(ah)) = (al.get_mut(lane), ah.get_mut(lane)) {
+                    (*al, *ah) = (l, h);
+                }
+            }
+            let link = if splits(k) {
+                let kid = Pending {
+                    start: k.0,
+                    end: k.1,
+                    depth: k.2,
+                    wide_depth: p.wide_depth + 1,
+                    slot: base + lane as u32,
+                };
+                // a full queue (never: see STACK) leaves a leaf
+                if pending.push(kid).is_ok() {
+                    continue;
+                }
+                leaf_link(k.0, k.1)
+            } else {
+                leaf_link(k.0, k.1)
+            };
+            if let Some(l) = links.b[0].get_mut(lane) {
+                *l = f32::from_bits(link);
+            }
+        }
+        // S − me ≥ PARTS: room for the four units
+        for u in axes.into_iter().chain([links]) {
+            let _ = self.parts.push(u);
+        }
+    }
+
+    /// The box of the items `start..end`.
+    fn range_box(&self, spheres: &[Listed], start: u16, end: u16) -> Aabb {
+        let mut bounds = EMPTY_BOX;
+        for &it in self.items.get(start as usize..end as usize).unwrap_or(&[]) {
+            if let Some(l) = spheres.get((it & !NOT_SHADOW) as usize) {
+                let (lo, hi) = sphere_box(l);
+                grow(&mut bounds, &lo, &hi);
+            }
+        }
+        bounds
+    }
+
+    /// Partitions the items `start..end` (more than one) in two by the
+    /// binned surface-area heuristic (at depth [`SAH_DEPTH`] and beyond, or
+    /// when their centres coincide: at the middle) and returns where the
+    /// second part starts.
+    fn split(&mut self, spheres: &[Listed], start: u16, end: u16, depth: u16) -> u16 {
         let (s, e) = (start as usize, end as usize);
         let sphere_at = |item: u16| spheres.get((item & !NOT_SHADOW) as usize);
-        let mut bounds = EMPTY_BOX;
         let mut centres = EMPTY_BOX;
         for &it in self.items.get(s..e).unwrap_or(&[]) {
             if let Some(l) = sphere_at(it) {
-                let (lo, hi) = sphere_box(l);
-                grow(&mut bounds, &lo, &hi);
                 let c = [l.sphere.center.x, l.sphere.center.y, l.sphere.center.z];
                 grow(&mut centres, &c, &c);
             }
         }
         let count = end - start;
-        let leaf = count <= 3 || leaf_only;
-        // the nodes never outnumber the spheres (leaves of ≥ 2)
-        let _ = self.nodes.push(Node {
-            lo: bounds.0,
-            hi: bounds.1,
-            index: start,
-            count: if leaf { count } else { 0 },
-        });
-        if leaf {
-            return None;
-        }
         // the widest axis of the centres
         let ([lx, ly, lz], [hx, hy, hz]) = centres;
         let (ex, ey, ez) = (hx - lx, hy - ly, hz - lz);
@@ -259,8 +378,10 @@ impl<const S: usize> Bvh<S> {
         };
         let middle = start + count / 2;
         if depth >= SAH_DEPTH || !(width > 0.0) {
-            return Some(middle);
+            return middle;
         }
+        // parts of at least 2 spheres (1 when splitting a leaf's 2 or 3)
+        let least = if count > 3 { 2 } else { 1 };
         let scale = BINS as f32 * (1.0 - 1.0 / 1024.0) / width;
         let bin = |l: &Listed| {
             let b = ((coord(l.sphere.center, k) - cmin) * scale) as usize;
@@ -287,7 +408,7 @@ impl<const S: usize> Bvh<S> {
                 cnt += c;
             }
             if let Some(rc) = right_cost.get_mut(j) {
-                *rc = if cnt >= 2 {
+                *rc = if cnt >= least {
                     half_area(&acc) * cnt as f32
                 } else {
                     f32::INFINITY
@@ -302,7 +423,7 @@ impl<const S: usize> Bvh<S> {
                 cnt += c;
             }
             let rc = right_cost.get(j).copied().unwrap_or(f32::INFINITY);
-            if cnt >= 2 {
+            if cnt >= least {
                 let cost = half_area(&acc) * cnt as f32 + rc;
                 if cost < best_cost {
                     best_cost = cost;
@@ -311,7 +432,7 @@ impl<const S: usize> Bvh<S> {
             }
         }
         if best == 0 {
-            return Some(middle);
+            return middle;
         }
         // partition: the items of bins < best first (in place, in order
         // of the scan: deterministic)
@@ -329,57 +450,76 @@ impl<const S: usize> Bvh<S> {
                 i += 1;
             }
         }
-        Some(i as u16)
+        i as u16
     }
 }
 
-/// A ray prepared for box tests: origin and reciprocal direction.
+/// A ray prepared for box tests: origin, reciprocal direction, and for each
+/// axis the bound it meets first (0: the lower, 1: the upper, when it runs
+/// toward lower values).
 #[derive(Clone, Copy)]
 struct BoxRay {
     o: [f32; 3],
     inv: [f32; 3],
+    near: [usize; 3],
 }
 
 impl BoxRay {
     fn new(ray: &Ray) -> Self {
         let (o, d) = (ray.origin, ray.dir);
+        let inv = [1.0 / d.x, 1.0 / d.y, 1.0 / d.z];
         Self {
             o: [o.x, o.y, o.z],
-            inv: [1.0 / d.x, 1.0 / d.y, 1.0 / d.z],
+            inv,
+            near: [
+                usize::from(inv[0] < 0.0),
+                usize::from(inv[1] < 0.0),
+                usize::from(inv[2] < 0.0),
+            ],
         }
     }
 
-    /// The ray parameter where the ray enters `node`'s box, if it meets the
-    /// box within `[0, t_max]` (lengthened by [`SLACK`]). A NaN slab bound
-    /// (the origin on a slab plane of an axis the ray does not move along)
-    /// leaves the interval unchanged.
+    /// For the four boxes of a node (its units `x`, `y`, `z`): the ray
+    /// parameters where the ray enters them, and a mask of those it meets
+    /// within `[0, t_max]` (lengthened by [`SLACK`]), bit `k` for lane `k`.
+    /// A NaN slab bound (the origin on a slab plane of an axis the ray does
+    /// not move along) leaves the interval unchanged.
     #[inline(always)]
-    fn enter(&self, node: &Node, t_max: f32) -> Option<f32> {
+    fn enter(&self, x: &Lanes, y: &Lanes, z: &Lanes, t_max: f32) -> ([f32; WIDE], u32) {
+        let mut t0 = [0.0f32; WIDE];
+        let mut t1 = [t_max; WIDE];
         let [ox, oy, oz] = self.o;
         let [ix, iy, iz] = self.inv;
-        let [lx, ly, lz] = node.lo;
-        let [hx, hy, hz] = node.hi;
-        let (mut t0, mut t1) = (0.0f32, t_max);
-        slab(lx, hx, ox, ix, &mut t0, &mut t1);
-        slab(ly, hy, oy, iy, &mut t0, &mut t1);
-        slab(lz, hz, oz, iz, &mut t0, &mut t1);
-        if t0 <= t1 * SLACK { Some(t0) } else { None }
+        let [nx, ny, nz] = self.near;
+        slabs(x, nx, ox, ix, &mut t0, &mut t1);
+        slabs(y, ny, oy, iy, &mut t0, &mut t1);
+        slabs(z, nz, oz, iz, &mut t0, &mut t1);
+        let mut mask = 0;
+        for (k, (a, b)) in t0.iter().zip(t1).enumerate() {
+            mask |= u32::from(*a <= b * SLACK) << k;
+        }
+        (t0, mask)
     }
 }
 
-/// Narrows the ray interval `t0..t1` to the slab `lo..hi` of one axis
-/// (origin `o`, reciprocal direction `inv`); a NaN bound changes nothing.
+/// Narrows the ray intervals `t0..t1` of the four lanes to their slabs
+/// along one axis (origin `o`, reciprocal direction `inv`, `near`: the
+/// bound met first, see [`BoxRay`]); a NaN bound changes nothing. (Whole
+/// rows selected by an index, not lane by lane: the four lanes load and
+/// compute together.)
 #[inline(always)]
-fn slab(lo: f32, hi: f32, o: f32, inv: f32, t0: &mut f32, t1: &mut f32) {
-    let a = (lo - o) * inv;
-    let b = (hi - o) * inv;
-    let (near, far) = if inv < 0.0 { (b, a) } else { (a, b) };
-    if near > *t0 {
-        *t0 = near;
+fn slabs(u: &Lanes, near: usize, o: f32, inv: f32, t0: &mut [f32; WIDE], t1: &mut [f32; WIDE]) {
+    let (near, far) = (&u.b[near & 1], &u.b[(near ^ 1) & 1]);
+    for (((a, b), n), f) in t0.iter_mut().zip(t1.iter_mut()).zip(near).zip(far) {
+        *a = math::max((n - o) * inv, *a);
+        *b = math::min((f - o) * inv, *b);
     }
-    if far < *t1 {
-        *t1 = far;
-    }
+}
+
+/// The link of lane `k` of a links unit (see [`Lanes`]).
+#[inline(always)]
+fn link(links: &Lanes, k: usize) -> u32 {
+    links.b[0].get(k).map_or(0, |l| l.to_bits())
 }
 
 impl BvhView<'_> {
@@ -404,34 +544,58 @@ impl BvhView<'_> {
         let mut t_ask = *t_max;
         let mut best_pos = 0u16;
         let mut hit = None;
-        let mut stack = [(0u16, 0.0f32); STACK];
-        let mut sp = 0usize;
+        // (link, ray parameter where its box starts), the nearest on top
+        let mut stack: Vec<(u32, f32), STACK> = Vec::new();
         let mut node = 0usize;
-        while let Some(n) = self.nodes.get(node) {
-            if n.count == 0 {
-                let (a, b) = (node + 1, n.index as usize);
-                let ta = self.nodes.get(a).and_then(|m| br.enter(m, t_ask));
-                let tb = self.nodes.get(b).and_then(|m| br.enter(m, t_ask));
-                let next = match (ta, tb) {
-                    (Some(ta), Some(tb)) => {
-                        let (near, far, tf) = if tb < ta { (b, a, ta) } else { (a, b, tb) };
-                        if let Some(slot) = stack.get_mut(sp) {
-                            *slot = (far as u16, tf);
-                            sp += 1;
-                        }
-                        Some(near)
+        loop {
+            // the nearest child met goes next, the others wait (in lane
+            // order)
+            let mut next = None;
+            if let Some([x, y, z, l]) = self.parts.get(node..node + PARTS) {
+                let (t0, mask) = br.enter(x, y, z, t_ask);
+                // the mask is read as a whole (its lowest bit each time)
+                let mut bits = mask;
+                let mut t_next = f32::INFINITY;
+                while bits != 0 {
+                    let k = bits.trailing_zeros() as usize & (WIDE - 1);
+                    bits &= bits - 1;
+                    let (r, t) = (link(l, k), t0.get(k).copied().unwrap_or(0.0));
+                    if r == 0 {
+                        continue;
                     }
-                    (Some(_), None) => Some(a),
-                    (None, Some(_)) => Some(b),
-                    (None, None) => None,
-                };
-                if let Some(next) = next {
-                    node = next;
-                    continue;
+                    // at most three waiting children per node of the path
+                    if t < t_next {
+                        if let Some(n) = next {
+                            let _ = stack.push((n, t_next));
+                        }
+                        (next, t_next) = (Some(r), t);
+                    } else {
+                        let _ = stack.push((r, t));
+                    }
                 }
-            } else {
-                let (s, e) = (n.index as usize, n.index as usize + n.count as usize);
-                for &it in self.items.get(s..e).unwrap_or(&[]) {
+            }
+            // that child, else the nearest waiting one that can still hold
+            // a nearer hit: a leaf is tested here, an inner node opened
+            loop {
+                let r = match next.take() {
+                    Some(r) => r,
+                    None => {
+                        let Some((r, t)) = stack.pop() else {
+                            *t_max = t_best;
+                            return hit;
+                        };
+                        if !(t <= t_ask * SLACK) {
+                            continue;
+                        }
+                        r
+                    }
+                };
+                let (s, count) = ((r & 0xffff) as usize, (r >> 16) as usize);
+                if count == 0 {
+                    node = s;
+                    break;
+                }
+                for &it in self.items.get(s..s + count).unwrap_or(&[]) {
                     let pos = it & !NOT_SHADOW;
                     let Some(l) = spheres.get(pos as usize) else {
                         continue;
@@ -451,23 +615,7 @@ impl BvhView<'_> {
                     }
                 }
             }
-            // next waiting subtree that can still hold a nearer hit
-            loop {
-                if sp == 0 {
-                    *t_max = t_best;
-                    return hit;
-                }
-                sp -= 1;
-                if let Some(&(i, t)) = stack.get(sp)
-                    && t <= t_ask * SLACK
-                {
-                    node = i as usize;
-                    break;
-                }
-            }
         }
-        *t_max = t_best;
-        hit
     }
 
     /// Whether a sphere of `spheres` (the list the tree was built over) but
@@ -486,47 +634,126 @@ impl BvhView<'_> {
     ) -> bool {
         let br = BoxRay::new(ray);
         let skip_flag = if occluders_only { NOT_SHADOW } else { 0 };
-        let mut stack = [0u16; STACK];
-        let mut sp = 0usize;
+        let mut stack: Vec<u32, STACK> = Vec::new();
         let mut node = 0usize;
         loop {
-            if let Some(n) = self.nodes.get(node)
-                && br.enter(n, t_max).is_some()
-            {
-                if n.count == 0 {
-                    if let Some(slot) = stack.get_mut(sp) {
-                        *slot = n.index;
-                        sp += 1;
-                    }
-                    node += 1;
-                    continue;
-                }
-                let (s, e) = (n.index as usize, n.index as usize + n.count as usize);
-                for &it in self.items.get(s..e).unwrap_or(&[]) {
-                    if it & skip_flag != 0 {
+            if let Some([x, y, z, l]) = self.parts.get(node..node + PARTS) {
+                let (_, mut bits) = br.enter(x, y, z, t_max);
+                // the mask read as a whole (see `closest`)
+                while bits != 0 {
+                    let k = bits.trailing_zeros() as usize & (WIDE - 1);
+                    bits &= bits - 1;
+                    let r = link(l, k);
+                    let (s, count) = ((r & 0xffff) as usize, (r >> 16) as usize);
+                    if count == 0 {
+                        // an inner node (0: an empty lane); at most three
+                        // waiting children per node of the path
+                        if r != 0 {
+                            let _ = stack.push(r);
+                        }
                         continue;
                     }
-                    let Some(l) = spheres.get((it & !NOT_SHADOW) as usize) else {
-                        continue;
-                    };
-                    if l.id == target {
-                        continue;
-                    }
-                    let t = if l.id == from {
-                        l.sphere.intersect_from_surface(ray, t_max)
-                    } else {
-                        l.sphere.intersect(ray, t_max)
-                    };
-                    if t.is_some() {
-                        return true;
+                    for &it in self.items.get(s..s + count).unwrap_or(&[]) {
+                        if it & skip_flag != 0 {
+                            continue;
+                        }
+                        let Some(l) = spheres.get((it & !NOT_SHADOW) as usize) else {
+                            continue;
+                        };
+                        if l.id == target {
+                            continue;
+                        }
+                        let t = if l.id == from {
+                            l.sphere.intersect_from_surface(ray, t_max)
+                        } else {
+                            l.sphere.intersect(ray, t_max)
+                        };
+                        if t.is_some() {
+                            return true;
+                        }
                     }
                 }
             }
-            if sp == 0 {
-                return false;
+            match stack.pop() {
+                Some(r) => node = r as usize,
+                None => return false,
             }
-            sp -= 1;
-            node = stack.get(sp).copied().unwrap_or(u16::MAX) as usize;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Sphere;
+
+    /// 16 clusters of two pairs of spheres (the second pair an exact copy of
+    /// the first: equal ray parameters at different list positions), far
+    /// apart on a 4 × 4 grid.
+    fn clusters() -> Vec<Listed, 64> {
+        let mut out = Vec::new();
+        for c in 0..16 {
+            let base = Vec3::new((c % 4) as f32 * 20.0, 0.0, (c / 4) as f32 * 20.0);
+            for copy in 0..2 {
+                for k in 0..2 {
+                    let centre = base + Vec3::new(k as f32 * 3.0, 0.0, 0.0);
+                    let i = out.len();
+                    let l = Listed {
+                        sphere: Sphere::new(centre, 1.0, copy),
+                        id: ObjectId::sphere(i),
+                    };
+                    assert!(out.push(l).is_ok());
+                }
+            }
+        }
+        out
+    }
+
+    /// Law checked: the tree answers as the loop over the list does (the
+    /// nearest hit, of equal ones the first in the list; any blocking
+    /// sphere) also when its storage runs out and subtrees stay leaves of
+    /// many spheres: 64 spheres in clusters that need 21 nodes, where
+    /// `Bvh<64>` has room for 16.
+    #[test]
+    fn a_full_node_storage_leaves_big_leaves_and_the_same_answers() {
+        let list = clusters();
+        let mut tree = Bvh::<64>::EMPTY;
+        tree.build(&list, &[]);
+        assert_eq!(tree.len(), 16, "the storage is full");
+        let mut roomy = Bvh::<256>::EMPTY;
+        roomy.build(&list, &[]);
+        assert!(roomy.len() > 16, "the clusters need more nodes than 16");
+        let view = tree.view().unwrap();
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut hits = 0;
+        for _ in 0..4000 {
+            let o = Vec3::new(
+                next() * 80.0 - 10.0,
+                next() * 6.0 - 3.0,
+                next() * 80.0 - 10.0,
+            );
+            let aim = Vec3::new(next() * 70.0, next() * 2.0 - 1.0, next() * 70.0);
+            let ray = Ray::new(o, (aim - o).normalize());
+            let (mut t_loop, mut best) = (f32::INFINITY, None);
+            for (i, l) in list.iter().enumerate() {
+                if let Some(t) = l.sphere.intersect(&ray, t_loop) {
+                    (t_loop, best) = (t, Some(i));
+                }
+            }
+            let mut t_tree = f32::INFINITY;
+            let got = view.closest(&list, &ray, &mut t_tree, ObjectId::NONE);
+            let got = got.map(|l| list.iter().position(|m| core::ptr::eq(m, l)).unwrap());
+            assert_eq!((got, t_tree.to_bits()), (best, t_loop.to_bits()));
+            let blocked = view.blocked(&list, &ray, 50.0, ObjectId::NONE, ObjectId::NONE, false);
+            assert_eq!(blocked, best.is_some() && t_loop < 50.0);
+            hits += usize::from(best.is_some());
+        }
+        assert!(hits > 400, "{hits} rays of 4000 hit a sphere");
     }
 }
