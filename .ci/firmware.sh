@@ -12,7 +12,8 @@
 #    instruction, so the SysTick clock and every count are deterministic) for
 #    every scene in scenes/ and checks that its Rgb565 dump is byte-identical
 #    to the host CLI's default render (adaptive budget) of the same scene,
-#    size, spp and seed;
+#    size, spp and seed, and records each run's flash, static RAM, stack
+#    high-water, parse and render instructions (scenes.size);
 #  - builds the variant without the parser and the glass code
 #    (`--no-default-features --features firmware,mirror`: the Cornell box built
 #    in code), checks its image against the host's and records the flash it
@@ -96,10 +97,6 @@ run_scene() {
     [ -n "$name" ] || name=$(basename "$scene" .scene)
     size=$(awk '$1 == "resolution" { print $2 "x" $3; exit }' "$scene")
     size=${size:-64x64}
-    # many.scene: its parse keeps the scene builder (482 spheres, ~20 KB) on
-    # the stack, which beside the scene's 98 KB of statics fits the
-    # STM32F405's 128 KiB only with a small image (docs/bvh.md)
-    [ "$(basename "$scene")" = many.scene ] && size=24x16
     local env=(MICROPT_FW_SIZE="$size" MICROPT_FW_SPP=16 MICROPT_FW_SEED=0
         MICROPT_FW_OUT="$OUT/$name.board.rgb565")
     # without the parser the scene is the one built in code (cornell)
@@ -108,23 +105,47 @@ run_scene() {
     fi
     env "${env[@]}" cargo build -p micropt --release --example firmware "${features[@]}" --target "$TARGET"
     rm -f "$OUT/$name.board.rgb565"
+    local start=$SECONDS
     qemu_run "$name"
+    local qemu_s=$((SECONDS - start))
     "$HOST" render "$scene" --size "$size" --spp 16 --seed 0 --exposure 1 \
         -o "$OUT/$name.host.rgb565"
     if ! cmp "$OUT/$name.board.rgb565" "$OUT/$name.host.rgb565"; then
         fail "$name: the board's image differs from the host's (same scene, size, spp, seed)"
     fi
-    echo "$name $size: board and host images are bit-identical"
+    echo "$name $size: board and host images are bit-identical (QEMU ${qemu_s} s)"
+    scene_row "$name" "$size"
 }
 
 section() { arm-none-eabi-size -A "$ELF" | awk -v s="$1" '$1 == s { print $2; f = 1 } END { if (!f) print 0 }'; }
 
-fstep "firmware on every scene, bit-identical with the host"
-for scene in scenes/*.scene; do
-    [ "$scene" = scenes/cornell.scene ] && continue
-    # not yet on the board: its expected outputs are not blessed, and its
-    # QEMU run time is not measured
+# scene_row NAME SIZE: the figures of the run just made ($ELF, $OUT/NAME.run,
+# $OUT/NAME.icount), one row of $OUT/scenes.size
+scene_row() {
+    local name=$1 size=$2 flash ram fb stack paths marks render
+    flash=$(($(section .vector_table) + $(section .text) + $(section .rodata) + $(section .data)))
+    ram=$(($(section .data) + $(section .bss) + $(section .uninit)))
+    fb=$(arm-none-eabi-nm -C -S "$ELF" | awk '$4 ~ /::FRAMEBUFFER$/ { print $2 }')
+    stack=$(sed -n 's/.*stack high-water \([0-9]*\) bytes.*/\1/p' "$OUT/$name.run")
+    paths=$(sed -n 's/.*, \([0-9]*\) paths,.*/\1/p' "$OUT/$name.run")
+    read -r -a marks <<<"$(sed -n 's/^marks: //p' "$OUT/$name.icount")"
+    [ -n "$fb" ] && [ -n "$stack" ] && [ -n "$paths" ] && [ "${#marks[@]}" = 5 ] ||
+        fail "$name: could not read the firmware's figures"
+    render=$((marks[3] - marks[2]))
+    # the stack grows down from the top of the 128 KiB of RAM towards the
+    # statics: had it reached them, the paint below it would be gone
+    [ "$stack" -lt $((131072 - ram - 64)) ] ||
+        fail "$name: the stack ($stack bytes) filled the RAM left by the statics ($((131072 - ram)) bytes)"
+    printf '%-18s %-6s %7s %7s %6s %6s %10s %12s %7s %8s\n' "$name" "$size" "$flash" "$ram" \
+        "$((16#$fb))" "$stack" "$((marks[2] - marks[1]))" "$render" "$paths" \
+        "$((render / paths))" >>"$OUT/scenes.rows"
+}
 
+fstep "firmware on every scene, bit-identical with the host"
+rm -f "$OUT/scenes.rows"
+for scene in scenes/*.scene; do
+    # cornell last (below): its default build is the one measured
+    [ "$scene" = scenes/cornell.scene ] && continue
     run_scene "$scene"
 done
 
@@ -202,8 +223,19 @@ render=$((marks[3] - marks[2]))
     echo "text_rodata: $((code_text + code_rodata))  (parser build: $((text + rodata)); saved $((text + rodata - code_text - code_rodata)))"
     echo "stack_high_water: $code_stack  (parser build: $stack)"
 } >"$OUT/cornell-code.size"
+{
+    echo "# examples/firmware, release, every scene at its resolution, Budget::Spp(16)"
+    echo "# adaptive, seed 0 (QEMU netduinoplus2 -icount shift=0; cornell-code: without"
+    echo "# the parser); written by .ci/firmware.sh. Bytes and executed instructions; parse:"
+    echo "# parse the scene, analysis, tree, camera; render: the budget executor; paths:"
+    echo "# traced paths."
+    printf '%-18s %-6s %7s %7s %6s %6s %10s %12s %7s %8s\n' "# scene" size flash static fb \
+        stack parse render paths per_path
+    cat "$OUT/scenes.rows"
+} >"$OUT/scenes.size"
 cat "$OUT/cornell-code.size"
 cat "$OUT/cornell.size"
+cat "$OUT/scenes.size"
 
 ok=1
 [ "$flash" -le 65536 ] || { echo "error: flash $flash > 65536 bytes" >&2; ok=0; }
@@ -233,12 +265,12 @@ echo "budgets met; no soft-double symbols; vsqrt.f32 in the render code; links w
 
 if [ "$BLESS" = 1 ]; then
     mkdir -p firmware/expected
-    for f in cornell.size cornell.run cornell-code.size; do
+    for f in cornell.size cornell.run cornell-code.size scenes.size; do
         cp "$OUT/$f" "firmware/expected/$f"
     done
-    echo "wrote firmware/expected/cornell.{size,run} and cornell-code.size"
+    echo "wrote firmware/expected/cornell.{size,run}, cornell-code.size and scenes.size"
 else
-    for f in cornell.size cornell.run cornell-code.size; do
+    for f in cornell.size cornell.run cornell-code.size scenes.size; do
         if ! diff -u "firmware/expected/$f" "$OUT/$f"; then
             echo "note: measured figures differ from firmware/expected/$f" \
                 "(informational; budgets above are the check; .ci/firmware.sh --bless updates)"

@@ -129,10 +129,7 @@ impl<const S: usize, const P: usize> Analysis<S, P> {
         view_order: Vec::new(),
         view_keys: Vec::new(),
         closed: false,
-        slabs: Slabs {
-            c: [[0.0; 2]; 3],
-            id: [[ObjectId::sphere(0); 2]; 3],
-        },
+        slabs: Slabs::ZERO,
         other_planes: Vec::new(),
         listed_view: Vec::new(),
         listed_shadow: Vec::new(),
@@ -141,6 +138,44 @@ impl<const S: usize, const P: usize> Analysis<S, P> {
         horizon_spheres: false,
         windows: Vec::new(),
     };
+
+    /// Back to [`Analysis::EMPTY`], field by field (no temporary of the
+    /// whole analysis on the stack).
+    #[cfg(feature = "parser")]
+    pub(crate) fn clear(&mut self) {
+        let Self {
+            lights,
+            emitters,
+            shadow_spheres,
+            shadow_planes,
+            view_order,
+            view_keys,
+            closed,
+            slabs,
+            other_planes,
+            listed_view,
+            listed_shadow,
+            light_clear,
+            horizon_planes,
+            horizon_spheres,
+            windows,
+        } = self;
+        lights.clear();
+        emitters.clear();
+        shadow_spheres.clear();
+        shadow_planes.clear();
+        view_order.clear();
+        view_keys.clear();
+        *closed = false;
+        *slabs = Slabs::ZERO;
+        other_planes.clear();
+        listed_view.clear();
+        listed_shadow.clear();
+        *light_clear = false;
+        *horizon_planes = false;
+        *horizon_spheres = false;
+        windows.clear();
+    }
 }
 
 /// A sphere as the ray queries test it: a copy next to its id, so that a
@@ -196,6 +231,12 @@ impl Slabs {
     pub const EMPTY: Self = Self {
         c: [[f32::INFINITY, f32::NEG_INFINITY]; 3],
         id: [[ObjectId::NONE; 2]; 3],
+    };
+
+    /// All zero bits: [`Analysis::EMPTY`]'s (never used).
+    const ZERO: Self = Self {
+        c: [[0.0; 2]; 3],
+        id: [[ObjectId::sphere(0); 2]; 3],
     };
 }
 
@@ -424,7 +465,6 @@ pub fn analyse_into<const S: usize, const P: usize>(
     // radius of the ray from the eye in the same direction, so each sphere
     // is grown by `reach` (`Camera::view_cos` widens the cone to match)
     let axis = (camera.target - eye).normalize();
-    let mut order: Vec<(f32, u16), S> = Vec::new();
     for (i, s) in spheres.iter().enumerate() {
         let to_c = s.center - eye;
         let d = to_c.length();
@@ -443,28 +483,29 @@ pub fn analyse_into<const S: usize, const P: usize>(
                 cos_t * cos_a + sin_t * sin_a
             }
         };
-        let _ = order.push((key, i as u16));
+        // at most S spheres, the capacity of both
+        let _ = view_keys.push(key);
+        let _ = view_order.push(i as u16);
     }
-    // insertion sort by descending key, then index (a total order, so the
-    // same result as any sort): core's sort and heapless' `collect` keep
-    // panic branches that the firmware's panic-never link rejects
-    let o = order.as_mut_slice();
-    for i in 1..o.len() {
+    // insertion sort of the two lists together by descending key, then
+    // index (a total order, so the same result as any sort), in place: no
+    // list of the spheres on the stack. Core's sort keeps panic branches
+    // that the firmware's panic-never link rejects.
+    let (keys, order) = (view_keys.as_mut_slice(), view_order.as_mut_slice());
+    for i in 1..keys.len() {
         for j in (1..=i).rev() {
-            let Some([a, b]) = o.get_mut(j - 1..=j) else {
+            let (Some([ka, kb]), Some([ia, ib])) =
+                (keys.get_mut(j - 1..=j), order.get_mut(j - 1..=j))
+            else {
                 break;
             };
-            if a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)).is_lt() {
-                core::mem::swap(a, b);
+            if ka.total_cmp(kb).then((*ib).cmp(ia)).is_lt() {
+                core::mem::swap(ka, kb);
+                core::mem::swap(ia, ib);
             } else {
                 break;
             }
         }
-    }
-    for &(k, i) in order.iter() {
-        // as many entries as `order`, whose capacity is S too
-        let _ = view_order.push(i);
-        let _ = view_keys.push(k);
     }
 
     let light_clear = match (lights.as_slice(), reachable().next()) {

@@ -7,7 +7,8 @@
 use crate::camera::CameraSpec;
 use crate::geometry::Vec3;
 use crate::material::{Checker, Material, Metal};
-use crate::scene::{MaterialId, Scene, SceneBuilder, SceneError};
+use crate::scene::builder::{Lists, Settings};
+use crate::scene::{MaterialId, Scene, SceneError};
 use heapless::Vec;
 
 mod decimal;
@@ -140,14 +141,18 @@ fn integer(tok: &str) -> Result<u32, ParseErrorKind> {
         .map_err(|_| ParseErrorKind::Scene(SceneError::Resolution))
 }
 
-struct Parser<'a, const S: usize, const P: usize, const M: usize> {
-    builder: SceneBuilder<S, P, M>,
+/// The parser's state: the scene's object lists, filled in place (so that
+/// its stack use does not grow with the scene's capacities), the scene-wide
+/// values and the material names.
+struct Parser<'a, 's, const S: usize, const P: usize, const M: usize> {
+    lists: Lists<'s, S, P, M>,
+    settings: Settings,
     names: Vec<&'a str, M>,
     seen_resolution: bool,
     seen_background: bool,
 }
 
-impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
+impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, '_, S, P, M> {
     fn material_id(&self, name: &str) -> Result<MaterialId, ParseErrorKind> {
         self.names
             .iter()
@@ -196,7 +201,7 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
                 } else {
                     pinhole
                 };
-                self.builder.camera(spec).map_err(scene)
+                self.settings.camera(spec).map_err(scene)
             }
             "resolution" => {
                 count(2)?;
@@ -206,7 +211,7 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
                 self.seen_resolution = true;
                 let w = integer(args.first().copied().unwrap_or(""))?;
                 let h = integer(args.get(1).copied().unwrap_or(""))?;
-                self.builder.resolution(w, h).map_err(scene)
+                self.settings.resolution(w, h).map_err(scene)
             }
             "background" => {
                 count(3)?;
@@ -215,7 +220,7 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
                 }
                 self.seen_background = true;
                 let v = nums(0..3)?;
-                self.builder
+                self.settings
                     .background(Vec3::new(v[0], v[1], v[2]))
                     .map_err(scene)
             }
@@ -266,8 +271,8 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
                 if self.names.contains(&name) {
                     return Err(ParseErrorKind::RedefinedMaterial);
                 }
-                self.builder.material(m).map_err(scene)?;
-                // capacity equals the builder's, which just accepted one more
+                self.lists.material(m).map_err(scene)?;
+                // capacity equals the scene's, which just accepted one more
                 self.names
                     .push(name)
                     .map_err(|_| scene(SceneError::Capacity("materials")))
@@ -280,7 +285,7 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
                 for ((l, t), &hi) in lo.iter_mut().zip(args).zip(&v) {
                     *l = residual(t, hi);
                 }
-                self.builder
+                self.lists
                     .sphere_precise(
                         Vec3::new(v[0], v[1], v[2]),
                         Vec3::new(lo[0], lo[1], lo[2]),
@@ -295,7 +300,7 @@ impl<'a, const S: usize, const P: usize, const M: usize> Parser<'a, S, P, M> {
                 count(7)?;
                 let v = nums(0..6)?;
                 let m = self.material_id(args.get(6).copied().unwrap_or(""))?;
-                self.builder
+                self.lists
                     .plane(Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]), m)
                     .map(|_| ())
                     .map_err(scene)
@@ -374,10 +379,11 @@ pub fn parse_bytes_with_capacity<const S: usize, const P: usize, const M: usize>
     Ok(scene)
 }
 
-/// Parses a scene from text into `scene` (all of it replaced; unchanged on
-/// error), in place: only the parser's scene builder is on the stack, never
-/// the scene and its analysis, so a board parses a scene held in static
-/// memory in a stack of about the builder's size.
+/// Parses a scene from text into `scene`, in place: all of it replaced, or
+/// on error left empty (as [`Scene::EMPTY`], which cannot be rendered). The
+/// scene is filled where it lies, so the parse's stack use is small and does
+/// not grow with the scene's capacities: a board parses a scene held in
+/// static memory without room for any copy of its lists on the stack.
 ///
 /// ```
 /// use micropt::Scene;
@@ -399,8 +405,23 @@ pub fn parse_bytes_into<const S: usize, const P: usize, const M: usize>(
     bytes: &[u8],
     scene: &mut Scene<S, P, M>,
 ) -> Result<(), ParseError> {
-    let mut p: Parser<'_, S, P, M> = Parser {
-        builder: SceneBuilder::new(),
+    let result = parse_in_place(bytes, scene);
+    if result.is_err() {
+        // the lists hold the scene up to the error, the rest the previous
+        // scene's: nothing consistent to keep
+        scene.clear();
+    }
+    result
+}
+
+/// [`parse_bytes_into`] but for the clean-up on error.
+fn parse_in_place<const S: usize, const P: usize, const M: usize>(
+    bytes: &[u8],
+    scene: &mut Scene<S, P, M>,
+) -> Result<(), ParseError> {
+    let mut p: Parser<'_, '_, S, P, M> = Parser {
+        lists: scene.lists_to_fill(),
+        settings: Settings::NEW,
         names: Vec::new(),
         seen_resolution: false,
         seen_background: false,
@@ -421,7 +442,7 @@ pub fn parse_bytes_into<const S: usize, const P: usize, const M: usize>(
     if bytes.last() == Some(&b'\n') {
         line_no = line_no.saturating_sub(1).max(1);
     }
-    p.builder.build_into(scene).map_err(|e| ParseError {
+    p.settings.finish(scene).map_err(|e| ParseError {
         line: line_no.max(1),
         kind: match e {
             SceneError::NoCamera => ParseErrorKind::MissingCamera,
@@ -434,30 +455,48 @@ pub fn parse_bytes_into<const S: usize, const P: usize, const M: usize>(
 mod tests {
     use super::*;
 
-    /// In-place parsing gives the same scene as parsing by value, and a
-    /// failed parse leaves the slot as it was. (Cornell has a mirror.)
+    /// In-place parsing gives the same scene as parsing by value, also into
+    /// a slot that held another scene, and a failed parse leaves the slot
+    /// empty, a scene the renderer refuses. (Cornell has a mirror.)
     #[cfg(feature = "mirror")]
     #[test]
-    fn parse_into_fills_the_slot_and_keeps_it_on_error() {
+    fn parse_into_fills_the_slot_and_empties_it_on_error() {
         let text = include_str!("../scenes/cornell.scene");
         let by_value: Scene<8, 8, 8> = parse_with_capacity(text).unwrap();
+        let same = |slot: &Scene<8, 8, 8>| {
+            assert_eq!(slot.spheres(), by_value.spheres());
+            assert_eq!(slot.planes(), by_value.planes());
+            assert_eq!(slot.materials(), by_value.materials());
+            assert_eq!(slot.lights(), by_value.lights());
+            assert_eq!(slot.analysis().view_order, by_value.analysis().view_order);
+            assert_eq!(slot.analysis().view_keys, by_value.analysis().view_keys);
+            assert_eq!(slot.analysis().slabs, by_value.analysis().slabs);
+            assert_eq!(slot.camera(), by_value.camera());
+            assert_eq!(slot.resolution(), by_value.resolution());
+        };
         let mut slot: Scene<8, 8, 8> = Scene::EMPTY;
         parse_into(text, &mut slot).unwrap();
-        assert_eq!(slot.spheres(), by_value.spheres());
-        assert_eq!(slot.planes(), by_value.planes());
-        assert_eq!(slot.materials(), by_value.materials());
-        assert_eq!(slot.lights(), by_value.lights());
-        assert_eq!(slot.analysis().view_order, by_value.analysis().view_order);
-        assert_eq!(slot.analysis().slabs, by_value.analysis().slabs);
-        let err = parse_into(
-            "camera 0 0 4 0 0 0 0 1 0 40\nsphere 0 0 0 1 nope\n",
-            &mut slot,
-        );
-        assert_eq!(err.map_err(|e| e.line), Err(2));
-        assert_eq!(slot.spheres(), by_value.spheres());
+        same(&slot);
+        // an error after some objects were added, and one at the end (no
+        // camera): the slot is empty either way
+        for bad in [
+            "camera 0 0 4 0 0 0 0 1 0 40\nmaterial g diffuse 0.5 0.5 0.5\nsphere 0 0 0 1 g\nsphere 0 0 0 1 nope\n",
+            "material g diffuse 0.5 0.5 0.5\nsphere 0 0 0 1 g\n",
+        ] {
+            parse_into(text, &mut slot).unwrap();
+            assert!(parse_into(bad, &mut slot).is_err());
+            assert!(slot.spheres().is_empty() && slot.planes().is_empty());
+            assert!(slot.materials().is_empty() && slot.lights().is_empty());
+            assert!(slot.analysis().view_order.is_empty() && slot.bvh().is_empty());
+            assert!(slot.resolution().is_none());
+            assert!(crate::Renderer::new(&slot, 8, 8).is_err());
+        }
         // a slot re-parsed with another scene holds only that one
         parse_into("camera 0 0 4 0 0 0 0 1 0 40\n", &mut slot).unwrap();
         assert!(slot.spheres().is_empty() && slot.lights().is_empty());
+        assert!(slot.analysis().view_order.is_empty());
+        parse_into(text, &mut slot).unwrap();
+        same(&slot);
     }
 
     /// A lens camera in a build without the lens code is an error at the

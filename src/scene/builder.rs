@@ -108,9 +108,7 @@ pub struct SceneBuilder<
     spheres: Vec<Sphere, S>,
     planes: Vec<Plane, P>,
     materials: Vec<Material, M>,
-    background: Color,
-    camera: Option<CameraSpec>,
-    resolution: Option<(u32, u32)>,
+    settings: Settings,
 }
 
 impl<const S: usize, const P: usize, const M: usize> Default for SceneBuilder<S, P, M> {
@@ -146,26 +144,19 @@ pub(crate) fn check_non_negative(c: Color, what: &'static str) -> Result<(), Sce
     }
 }
 
-impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
-    /// An empty scene: no objects, black background, no camera yet.
-    pub const fn new() -> Self {
-        let () = Capacities::<S, P, M>::CHECK;
-        Self {
-            spheres: Vec::new(),
-            planes: Vec::new(),
-            materials: Vec::new(),
-            background: Vec3::ZERO,
-            camera: None,
-            resolution: None,
-        }
-    }
+/// The object lists of a scene being built, borrowed: a [`SceneBuilder`]'s
+/// own, or a [`Scene`]'s when the scene is built in place (the parser, whose
+/// stack then holds no list: its use does not grow with the capacities).
+/// Every object is checked as it is added.
+pub(crate) struct Lists<'a, const S: usize, const P: usize, const M: usize> {
+    spheres: &'a mut Vec<Sphere, S>,
+    planes: &'a mut Vec<Plane, P>,
+    materials: &'a mut Vec<Material, M>,
+}
 
-    /// Adds a material after checking its values ([`Material::validate`]:
-    /// albedo and tint in [0, 1], IOR > 0, metal width in [0.001, 1],
-    /// checker size > 0, radiance ≥ 0). A mirror, glass, metal or checker
-    /// material in a build without its cargo feature is
-    /// [`SceneError::MaterialNotBuilt`]: the renderer has no code for it.
-    pub fn material(&mut self, m: Material) -> Result<MaterialId, SceneError> {
+impl<const S: usize, const P: usize, const M: usize> Lists<'_, S, P, M> {
+    /// [`SceneBuilder::material`].
+    pub(crate) fn material(&mut self, m: Material) -> Result<MaterialId, SceneError> {
         m.validate()?;
         let id = self.materials.len() as u16;
         self.materials
@@ -180,22 +171,8 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
             .ok_or(SceneError::UnknownMaterial)
     }
 
-    /// Adds a sphere (radius > 0).
-    pub fn sphere(
-        &mut self,
-        center: Vec3,
-        radius: f32,
-        m: MaterialId,
-    ) -> Result<ObjectId, SceneError> {
-        self.sphere_precise(center, Vec3::ZERO, radius, 0.0, m)
-    }
-
-    /// Adds a sphere of centre `center + center_lo` and radius
-    /// `radius + radius_lo`: f32 values and the remainders of exact ones
-    /// (see [`Sphere::with_residuals`]; the parser gives them for every
-    /// decimal). Only huge spheres, whose centre's rounding is a visible
-    /// distance in the scene, need them.
-    pub fn sphere_precise(
+    /// [`SceneBuilder::sphere_precise`].
+    pub(crate) fn sphere_precise(
         &mut self,
         center: Vec3,
         center_lo: Vec3,
@@ -225,9 +202,8 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         Ok(id)
     }
 
-    /// Adds an infinite two-sided plane through `point` with normal `normal`
-    /// (any non-zero length). A light material is rejected.
-    pub fn plane(
+    /// [`SceneBuilder::plane`].
+    pub(crate) fn plane(
         &mut self,
         point: Vec3,
         normal: Vec3,
@@ -253,11 +229,42 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
             .map_err(|_| SceneError::Capacity("planes"))?;
         Ok(id)
     }
+}
 
-    /// Sets the camera (exactly once). A camera with a lens in a build
-    /// without the `lens` feature is refused
-    /// ([`CameraError::LensNotBuilt`]).
-    pub fn camera(&mut self, spec: CameraSpec) -> Result<(), SceneError> {
+impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
+    /// The scene's object lists emptied, to be filled in place.
+    #[cfg(feature = "parser")]
+    pub(crate) fn lists_to_fill(&mut self) -> Lists<'_, S, P, M> {
+        self.spheres.clear();
+        self.planes.clear();
+        self.materials.clear();
+        Lists {
+            spheres: &mut self.spheres,
+            planes: &mut self.planes,
+            materials: &mut self.materials,
+        }
+    }
+}
+
+/// The scene-wide values of a scene being built: camera, background and
+/// image size, each checked as it is set.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Settings {
+    background: Color,
+    camera: Option<CameraSpec>,
+    resolution: Option<(u32, u32)>,
+}
+
+impl Settings {
+    /// Black background, no camera, no image size.
+    pub(crate) const NEW: Self = Self {
+        background: Vec3::ZERO,
+        camera: None,
+        resolution: None,
+    };
+
+    /// [`SceneBuilder::camera`].
+    pub(crate) fn camera(&mut self, spec: CameraSpec) -> Result<(), SceneError> {
         if self.camera.is_some() {
             return Err(SceneError::SecondCamera);
         }
@@ -266,16 +273,15 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         Ok(())
     }
 
-    /// Sets the radiance of rays that hit nothing (default black).
-    pub fn background(&mut self, c: Color) -> Result<(), SceneError> {
+    /// [`SceneBuilder::background`].
+    pub(crate) fn background(&mut self, c: Color) -> Result<(), SceneError> {
         check_non_negative(c, "background radiance")?;
         self.background = c;
         Ok(())
     }
 
-    /// Sets the default image size: each side in 1..=[`MAX_SIDE`], at most
-    /// [`MAX_PIXELS`] in all (else [`SceneError::Resolution`]).
-    pub fn resolution(&mut self, width: u32, height: u32) -> Result<(), SceneError> {
+    /// [`SceneBuilder::resolution`].
+    pub(crate) fn resolution(&mut self, width: u32, height: u32) -> Result<(), SceneError> {
         let pixels = u64::from(width) * u64::from(height);
         if width == 0
             || height == 0
@@ -289,29 +295,15 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
         Ok(())
     }
 
-    /// Number of spheres added so far.
-    pub fn sphere_count(&self) -> usize {
-        self.spheres.len()
-    }
-
-    /// Finishes the scene: requires a camera, and analyses what work the
-    /// scene can never need ([`crate::analysis`]).
-    pub fn build(self) -> Result<Scene<S, P, M>, SceneError> {
-        let mut scene = Scene::EMPTY;
-        self.build_into(&mut scene)?;
-        Ok(scene)
-    }
-
-    /// [`SceneBuilder::build`] into `scene` (all of it replaced; unchanged
-    /// on error), in place: the scene is never on the stack, only this
-    /// builder. With `scene` in static memory (e.g. a `static` initialised
-    /// with [`Scene::EMPTY`]) a board builds a large scene in a stack of
-    /// about the builder's size.
-    pub fn build_into(self, scene: &mut Scene<S, P, M>) -> Result<(), SceneError> {
+    /// Finishes `scene`, whose object lists are filled: sets these values
+    /// and runs the load-time analysis (and builds the tree if it pays).
+    /// Without a camera it is [`SceneError::NoCamera`], and `scene` is left
+    /// as it was.
+    pub(crate) fn finish<const S: usize, const P: usize, const M: usize>(
+        self,
+        scene: &mut Scene<S, P, M>,
+    ) -> Result<(), SceneError> {
         let camera = self.camera.ok_or(SceneError::NoCamera)?;
-        scene.spheres = self.spheres;
-        scene.planes = self.planes;
-        scene.materials = self.materials;
         scene.background = self.background;
         scene.camera = camera;
         scene.resolution = self.resolution;
@@ -328,6 +320,121 @@ impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
             scene.set_bvh(tree_pays(scene.analysis.listed_view.len()));
         }
         Ok(())
+    }
+}
+
+impl<const S: usize, const P: usize, const M: usize> SceneBuilder<S, P, M> {
+    /// An empty scene: no objects, black background, no camera yet.
+    pub const fn new() -> Self {
+        let () = Capacities::<S, P, M>::CHECK;
+        Self {
+            spheres: Vec::new(),
+            planes: Vec::new(),
+            materials: Vec::new(),
+            settings: Settings::NEW,
+        }
+    }
+
+    fn lists(&mut self) -> Lists<'_, S, P, M> {
+        Lists {
+            spheres: &mut self.spheres,
+            planes: &mut self.planes,
+            materials: &mut self.materials,
+        }
+    }
+
+    /// Adds a material after checking its values ([`Material::validate`]:
+    /// albedo and tint in [0, 1], IOR > 0, metal width in [0.001, 1],
+    /// checker size > 0, radiance ≥ 0). A mirror, glass, metal or checker
+    /// material in a build without its cargo feature is
+    /// [`SceneError::MaterialNotBuilt`]: the renderer has no code for it.
+    pub fn material(&mut self, m: Material) -> Result<MaterialId, SceneError> {
+        self.lists().material(m)
+    }
+
+    /// Adds a sphere (radius > 0).
+    pub fn sphere(
+        &mut self,
+        center: Vec3,
+        radius: f32,
+        m: MaterialId,
+    ) -> Result<ObjectId, SceneError> {
+        self.sphere_precise(center, Vec3::ZERO, radius, 0.0, m)
+    }
+
+    /// Adds a sphere of centre `center + center_lo` and radius
+    /// `radius + radius_lo`: f32 values and the remainders of exact ones
+    /// (see [`Sphere::with_residuals`]; the parser gives them for every
+    /// decimal). Only huge spheres, whose centre's rounding is a visible
+    /// distance in the scene, need them.
+    pub fn sphere_precise(
+        &mut self,
+        center: Vec3,
+        center_lo: Vec3,
+        radius: f32,
+        radius_lo: f32,
+        m: MaterialId,
+    ) -> Result<ObjectId, SceneError> {
+        self.lists()
+            .sphere_precise(center, center_lo, radius, radius_lo, m)
+    }
+
+    /// Adds an infinite two-sided plane through `point` with normal `normal`
+    /// (any non-zero length). A light material is rejected.
+    pub fn plane(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        m: MaterialId,
+    ) -> Result<ObjectId, SceneError> {
+        self.lists().plane(point, normal, m)
+    }
+
+    /// Sets the camera (exactly once). A camera with a lens in a build
+    /// without the `lens` feature is refused
+    /// ([`CameraError::LensNotBuilt`]).
+    pub fn camera(&mut self, spec: CameraSpec) -> Result<(), SceneError> {
+        self.settings.camera(spec)
+    }
+
+    /// Sets the radiance of rays that hit nothing (default black).
+    pub fn background(&mut self, c: Color) -> Result<(), SceneError> {
+        self.settings.background(c)
+    }
+
+    /// Sets the default image size: each side in 1..=[`MAX_SIDE`], at most
+    /// [`MAX_PIXELS`] in all (else [`SceneError::Resolution`]).
+    pub fn resolution(&mut self, width: u32, height: u32) -> Result<(), SceneError> {
+        self.settings.resolution(width, height)
+    }
+
+    /// Number of spheres added so far.
+    pub fn sphere_count(&self) -> usize {
+        self.spheres.len()
+    }
+
+    /// Finishes the scene: requires a camera, and analyses what work the
+    /// scene can never need ([`crate::analysis`]).
+    pub fn build(self) -> Result<Scene<S, P, M>, SceneError> {
+        let mut scene = Scene::EMPTY;
+        self.build_into(&mut scene)?;
+        Ok(scene)
+    }
+
+    /// [`SceneBuilder::build`] into `scene` (all of it replaced; unchanged
+    /// on error): the scene is never on the stack, only this builder. With
+    /// `scene` in static memory (e.g. a `static` initialised with
+    /// [`Scene::EMPTY`]) a board builds a large scene in a stack of about
+    /// the builder's size. (The parser builds in place without a builder:
+    /// [`crate::parse::parse_into`].)
+    pub fn build_into(self, scene: &mut Scene<S, P, M>) -> Result<(), SceneError> {
+        if self.settings.camera.is_none() {
+            return Err(SceneError::NoCamera);
+        }
+        scene.spheres = self.spheres;
+        scene.planes = self.planes;
+        scene.materials = self.materials;
+        self.settings.finish(scene)
     }
 }
 

@@ -54,6 +54,17 @@ impl<const S: usize, const P: usize, const M: usize> Capacities<S, P, M> {
     );
 }
 
+/// [`Scene::EMPTY`]'s camera: all zeros, which
+/// [`Renderer::new`](crate::Renderer::new) refuses.
+const NO_CAMERA: CameraSpec = CameraSpec {
+    eye: Vec3::ZERO,
+    target: Vec3::ZERO,
+    up: Vec3::ZERO,
+    vfov_deg: 0.0,
+    aperture: 0.0,
+    focus: 0.0,
+};
+
 /// A validated scene with fixed capacities (default 128 spheres, 16 planes,
 /// 32 materials; choose others with the const parameters).
 ///
@@ -104,17 +115,36 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             analysis: Analysis::EMPTY,
             bvh: Bvh::EMPTY,
             background: Color::ZERO,
-            camera: CameraSpec {
-                eye: Vec3::ZERO,
-                target: Vec3::ZERO,
-                up: Vec3::ZERO,
-                vfov_deg: 0.0,
-                aperture: 0.0,
-                focus: 0.0,
-            },
+            camera: NO_CAMERA,
             resolution: None,
         }
     };
+
+    /// Back to [`Scene::EMPTY`], field by field (no temporary of the whole
+    /// scene on the stack): what a failed [`parse_into`] leaves.
+    ///
+    /// [`parse_into`]: crate::parse::parse_into
+    #[cfg(feature = "parser")]
+    pub(crate) fn clear(&mut self) {
+        let Self {
+            spheres,
+            planes,
+            materials,
+            analysis,
+            bvh,
+            background,
+            camera,
+            resolution,
+        } = self;
+        spheres.clear();
+        planes.clear();
+        materials.clear();
+        analysis.clear();
+        bvh.clear();
+        *background = Color::ZERO;
+        *camera = NO_CAMERA;
+        *resolution = None;
+    }
 
     /// The spheres.
     pub fn spheres(&self) -> &[Sphere] {
