@@ -231,15 +231,16 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
             _ => {}
         }
     }
-    // a scene below the tree's threshold (analysis::TREE_MIN_SPHERES) never
-    // gets a bounding volume hierarchy: leave its code out of the firmware
-    // (about 4 KB of flash)
+    // a scene below the board's tree threshold (analysis::TREE_MIN_SPHERES
+    // on a target without an OS: 24) never gets a bounding volume hierarchy:
+    // leave its code out of the firmware (about 30 KB of flash: the build,
+    // both traversals and the integrator's tree variants)
     let force_bvh = match var("MICROPT_FW_FORCE_BVH").as_deref().map(str::trim) {
         None | Some("0") => false,
         Some("1") => true,
         Some(s) => return Err(format!("MICROPT_FW_FORCE_BVH={s:?} is not 0 or 1")),
     };
-    if spheres < 16 && !force_bvh {
+    if spheres < 24 && !force_bvh {
         println!("cargo:rustc-cfg=micropt_no_bvh");
     }
     let (width, height) = match var("MICROPT_FW_SIZE") {

@@ -60,8 +60,12 @@ use heapless::Vec;
 
 /// The fewest spheres for which a bounding volume hierarchy
 /// ([`crate::scene::bvh`]) pays: below, a loop over the sphere list costs
-/// fewer instructions per ray than the tree's box tests.
-pub const TREE_MIN_SPHERES: usize = 16;
+/// fewer instructions per ray than the tree's box tests. The crossover is
+/// measured per kind of core (random fields, docs/bvh.md): on a host's
+/// out-of-order core the tree wins from about 12 spheres, on a
+/// microcontroller (in-order, FPU registers only) from about 24. The tree
+/// changes no image bit, so the two may differ.
+pub const TREE_MIN_SPHERES: usize = if cfg!(target_os = "none") { 24 } else { 12 };
 
 /// Whether a scene of `spheres` listed spheres gets a bounding volume
 /// hierarchy.

@@ -7,10 +7,10 @@
 # For each N a field of N spheres (tools/field.py N FIELD_SEED) is rendered by
 # the firmware twice, tree on and tree off:
 #
-#   tree  the default build; below the tree's threshold (16 spheres) with
+#   tree  the default build; below the board's tree threshold (24 spheres) with
 #         MICROPT_FW_FORCE_BVH=1 (the CLI's --force-bvh)
-#   list  MICROPT_FW_SKIP_OFF=bvh (the CLI's --no-skip bvh; from 16 spheres on
-#         the tree is still built at load, and left unused); below 16 spheres
+#   list  MICROPT_FW_SKIP_OFF=bvh (the CLI's --no-skip bvh; from 24 spheres on
+#         the tree is still built at load, and left unused); below 24 spheres
 #         the plain build, which has no tree code at all
 #
 # on QEMU's Cortex-M7 (mps2-an500, thumbv7em-none-eabihf: the M4F's code and
@@ -91,7 +91,7 @@ build_one() {
         MICROPT_FW_SEED="$SEED" MICROPT_FW_OUT="$OUT/$tag.board.rgb565")
     if [ "$config" = list ]; then
         env+=(MICROPT_FW_SKIP_OFF=bvh)
-    elif [ "$n" -lt 16 ]; then
+    elif [ "$n" -lt 24 ]; then
         env+=(MICROPT_FW_FORCE_BVH=1)
     fi
     rm -f "$OUT/$tag.elf"
