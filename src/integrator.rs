@@ -222,24 +222,68 @@ struct LightChoice {
     d2: f32,
 }
 
-/// The scene as one path sees it: the view plus the skips in force.
-struct Ctx<'v, 'a> {
-    scene: &'v SceneView<'a>,
+/// What every path of a render decides the same way, from the scene view
+/// and the options alone: made once per render ([`PathPlan::new`]; the
+/// renderer keeps it) rather than once per path.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PathPlan<'a> {
     /// Emitters that next-event estimation samples.
     lights: &'a [u16],
+    /// The several-lights variant of the path tracer (or no light at all,
+    /// or the `specialize` skip off).
+    many: bool,
     /// Zero weight for lights entirely below the horizon of a point of a
     /// plane (the skip is on and the scene analysis found it can happen).
     horizon_planes: bool,
     /// The same for points of spheres.
     horizon_spheres: bool,
-    /// The only light, looked up once per path (scenes with one light).
+    /// The only light, looked up once (scenes with one light).
     one: Option<OneLight<'a>>,
     /// Windows of lights cut by a wall (empty with that skip off).
     windows: &'a [Window],
 }
 
+impl<'a> PathPlan<'a> {
+    /// The plan of every path through `scene` with `opts`.
+    pub(crate) fn new(scene: &SceneView<'a>, opts: &Options) -> Self {
+        let skip = &opts.skip;
+        let lights = if skip.unreachable_lights {
+            scene.lights
+        } else {
+            scene.emitters
+        };
+        // no light at all: the general variant, which runs fewer
+        // instructions there than the one-light variant (docs/bench.md) and
+        // draws the same numbers
+        let many = lights.len() != 1 || !skip.specialize;
+        let windows: &[Window] = if cfg!(feature = "windows") && skip.windows {
+            scene.windows
+        } else {
+            &[]
+        };
+        Self {
+            lights,
+            many,
+            horizon_planes: skip.horizon && scene.horizon_planes,
+            horizon_spheres: skip.horizon && scene.horizon_spheres,
+            one: if many {
+                None
+            } else {
+                OneLight::first(scene, lights, windows)
+            },
+            windows,
+        }
+    }
+}
+
+/// The scene as one path sees it: the view plus the render's plan.
+struct Ctx<'v, 'a> {
+    scene: &'v SceneView<'a>,
+    plan: &'v PathPlan<'a>,
+}
+
 /// What next-event estimation needs of a scene's only light.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct OneLight<'a> {
     sphere: usize,
     center: Vec3,
@@ -267,7 +311,28 @@ impl<'a> OneLight<'a> {
     }
 }
 
-impl Ctx<'_, '_> {
+impl<'a> Ctx<'_, 'a> {
+    /// The windows in force. Without the `windows` feature none, as a
+    /// constant: such a build has no window code.
+    #[inline(always)]
+    fn windows(&self) -> &'a [Window] {
+        if cfg!(feature = "windows") {
+            self.plan.windows
+        } else {
+            &[]
+        }
+    }
+
+    /// The only light's window (see [`Ctx::windows`]).
+    #[inline(always)]
+    fn window_of_one(one: &OneLight<'a>) -> Option<&'a Window> {
+        if cfg!(feature = "windows") {
+            one.window
+        } else {
+            None
+        }
+    }
+
     fn light_lum(&self, sphere: usize) -> f32 {
         let s = &self.scene;
         s.spheres
@@ -281,9 +346,9 @@ impl Ctx<'_, '_> {
     #[inline(always)]
     fn horizon_at(&self, object: ObjectId) -> bool {
         if object.as_sphere().is_some() {
-            self.horizon_spheres
+            self.plan.horizon_spheres
         } else {
-            self.horizon_planes
+            self.plan.horizon_planes
         }
     }
 
@@ -327,7 +392,7 @@ impl Ctx<'_, '_> {
     ) -> (Option<LightChoice>, f32) {
         let u = stream.next_f32();
         let mut sum = 0.0;
-        for &l in self.lights {
+        for &l in self.plan.lights {
             sum += self.light_weight(x, n, l as usize, horizon);
         }
         if !(sum > 0.0) {
@@ -336,7 +401,7 @@ impl Ctx<'_, '_> {
         let target = u * sum;
         let mut acc = 0.0;
         let mut chosen = None;
-        for &l in self.lights {
+        for &l in self.plan.lights {
             let i = l as usize;
             let Some((to_c, d2, r2)) = self.samplable(x, n, i, horizon) else {
                 continue;
@@ -365,23 +430,23 @@ impl Ctx<'_, '_> {
         if !MANY {
             // bit for bit the pdf from the point and normal: the same
             // one_minus_cos_max of the same operands, or the same window
-            return match &self.one {
+            return match &self.plan.one {
                 Some(one) if one.sphere == i && prev.light_omc > 0.0 => {
                     1.0 / (math::TWO_PI * prev.light_omc)
                 }
                 Some(one) if one.sphere == i && prev.light_omc < 0.0 => {
-                    one.window.map_or(0.0, |w| w.pdf(prev.point, dir))
+                    Self::window_of_one(one).map_or(0.0, |w| w.pdf(prev.point, dir))
                 }
                 _ => 0.0,
             };
         }
-        if !self.lights.contains(&(i as u16)) {
+        if !self.plan.lights.contains(&(i as u16)) {
             return 0.0;
         }
         let Some((_, d2, r2)) = self.samplable(prev.point, prev.normal, i, prev.horizon) else {
             return 0.0;
         };
-        if let Some(w) = window_of(self.windows, i)
+        if let Some(w) = window_of(self.windows(), i)
             && w.covers(prev.point)
         {
             if !(prev.weight_sum > 0.0) {
@@ -403,10 +468,12 @@ impl Ctx<'_, '_> {
 ///
 /// Pure function of its inputs: the same stream gives the same bits. The
 /// integrator is compiled in two variants, for one light (no light
-/// selection) or several, chosen here once per path. Both hold every
-/// material this build has: a scene without mirrors, glass or metal never
-/// enters their code, and one copy of the loop keeps the firmware
-/// small.
+/// selection) or several, and with and without the tree's queries, chosen
+/// once per path. Every variant holds every material this build has: a
+/// scene without mirrors, glass or metal never enters their code, and one
+/// copy of the loop per variant keeps the firmware small. (A renderer makes
+/// what this decides from `scene` and `opts` once per render, not once per
+/// path.)
 #[inline(always)]
 pub fn radiance(
     scene: &SceneView<'_>,
@@ -415,39 +482,28 @@ pub fn radiance(
     opts: &Options,
     stats: &mut Stats,
 ) -> Color {
-    let skip = &opts.skip;
-    let lights = if skip.unreachable_lights {
-        scene.lights
-    } else {
-        scene.emitters
-    };
-    // no light at all: the general variant, which runs fewer instructions
-    // there than the one-light variant (docs/bench.md) and draws the same
-    // numbers
-    let many = lights.len() != 1 || !skip.specialize;
-    let windows: &[Window] = if cfg!(feature = "windows") && skip.windows {
-        scene.windows
-    } else {
-        &[]
-    };
-    let ctx = Ctx {
-        scene,
-        lights,
-        horizon_planes: skip.horizon && scene.horizon_planes,
-        horizon_spheres: skip.horizon && scene.horizon_spheres,
-        one: if many {
-            None
-        } else {
-            OneLight::first(scene, lights, windows)
-        },
-        windows,
-    };
+    radiance_planned(scene, &PathPlan::new(scene, opts), ray, stream, opts, stats)
+}
+
+/// [`radiance`] with the decisions of `plan`, which must be
+/// `PathPlan::new(scene, opts)`.
+#[inline(always)]
+pub(crate) fn radiance_planned(
+    scene: &SceneView<'_>,
+    plan: &PathPlan<'_>,
+    ray: Ray,
+    stream: &mut SampleStream<'_>,
+    opts: &Options,
+    stats: &mut Stats,
+) -> Color {
+    let ctx = Ctx { scene, plan };
     // the queries are compiled with and without the tree, so that a scene
     // without one (a firmware for a small scene has no tree code at all)
-    // tests nothing about it per ray
+    // tests nothing about it per ray. (Tested here on the view, not kept in
+    // the plan: so the tree's variants know that the view has a tree, and
+    // hold no list query for the case without one.)
     let tree = !cfg!(micropt_no_bvh) && scene.bvh.is_some();
-    // many lights, or the skip off: the general variant
-    match (many, tree) {
+    match (plan.many, tree) {
         (true, false) => trace::<true, false>(&ctx, ray, stream, opts, stats),
         (false, false) => trace::<false, false>(&ctx, ray, stream, opts, stats),
         (true, true) => trace::<true, true>(&ctx, ray, stream, opts, stats),
@@ -525,7 +581,7 @@ fn trace<const MANY: bool, const TREE: bool>(
                 let mut weight_sum = 0.0;
                 let mut light_omc = 0.0;
                 let horizon = ctx.horizon_at(hit.object);
-                if opts.strategy != Strategy::BsdfOnly && !ctx.lights.is_empty() {
+                if opts.strategy != Strategy::BsdfOnly && !ctx.plan.lights.is_empty() {
                     // drawn before the light is chosen, so that skipping a
                     // light below the horizon never shifts the random numbers
                     let u = if depth == 0 && opts.stratified {
@@ -538,7 +594,7 @@ fn trace<const MANY: bool, const TREE: bool>(
                         let (choice, sum) = ctx.choose_light(hit.point, n, horizon, stream);
                         weight_sum = sum;
                         if let Some(c) = choice {
-                            let through = match window_of(ctx.windows, c.sphere) {
+                            let through = match window_of(ctx.windows(), c.sphere) {
                                 Some(w) => direct_window::<TREE, _>(
                                     scene,
                                     &hit,
@@ -570,7 +626,7 @@ fn trace<const MANY: bool, const TREE: bool>(
                                 ),
                             };
                         }
-                    } else if let Some(one) = &ctx.one {
+                    } else if let Some(one) = &ctx.plan.one {
                         weight_sum = 1.0;
                         let to_c = one.center - hit.point;
                         let d2 = to_c.length_squared();
@@ -581,7 +637,7 @@ fn trace<const MANY: bool, const TREE: bool>(
                                 to_c,
                                 d2,
                             };
-                            let through = match one.window {
+                            let through = match Ctx::window_of_one(one) {
                                 Some(w) => nee_window::<MANY, TREE, _>(
                                     scene,
                                     &hit,

@@ -5,7 +5,7 @@
 use crate::camera::{Camera, CameraError};
 use crate::film::Tile;
 use crate::geometry::{Color, Ray};
-use crate::integrator::{self, Options, Stats};
+use crate::integrator::{self, Options, PathPlan, Stats};
 use crate::sampler::{PixelSampler, SampleStream, pixel_key_of, seed_key};
 use crate::scene::bvh::BvhView;
 use crate::scene::{Scene, SceneView};
@@ -41,6 +41,9 @@ pub struct Renderer<'a> {
     options: Options,
     /// The scene's tree, whether or not the options use it.
     tree: Option<BvhView<'a>>,
+    /// What every path decides the same way: `PathPlan::new(&scene,
+    /// &options)`, made again whenever either changes.
+    plan: PathPlan<'a>,
 }
 
 impl<'a> Renderer<'a> {
@@ -55,12 +58,14 @@ impl<'a> Renderer<'a> {
         // that a ray through the film's edge could graze
         let view_cos = camera.view_cos() - 1e-4;
         let view = scene.view(view_cos);
+        let options = Options::default();
         Ok(Self {
             scene: view,
             camera,
             seed_key: seed_key(0),
-            options: Options::default(),
+            options,
             tree: view.bvh,
+            plan: PathPlan::new(&view, &options),
         })
     }
 
@@ -76,6 +81,7 @@ impl<'a> Renderer<'a> {
         if !cfg!(micropt_no_bvh) {
             self.scene.bvh = if options.skip.bvh { self.tree } else { None };
         }
+        self.plan = PathPlan::new(&self.scene, &self.options);
         self
     }
 
@@ -130,7 +136,14 @@ impl<'a> Renderer<'a> {
     ) -> Color {
         let mut s = pixel.stream(index);
         let ray = self.primary_ray(&mut s, x, y);
-        let c = integrator::radiance(&self.scene, ray, &mut s, &self.options, stats);
+        let c = integrator::radiance_planned(
+            &self.scene,
+            &self.plan,
+            ray,
+            &mut s,
+            &self.options,
+            stats,
+        );
         if c.is_finite() {
             c
         } else {
@@ -206,6 +219,66 @@ impl<'a> Renderer<'a> {
         let inv = 1.0 / spp.max(1) as f32;
         for c in out.iter_mut().take(tile.len()) {
             *c *= inv;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrator::Skip;
+
+    /// The renderer decides once per render (its `PathPlan`) what
+    /// `integrator::radiance` decides per path, and makes the plan again
+    /// when the options change: every sample has the bits of `radiance`
+    /// called on the same camera ray and stream, with every skip on, with
+    /// each off and with none. (cornell: one light; smallpt: a light cut
+    /// by its walls, so windows; furnace: no light.)
+    #[cfg(all(feature = "parser", feature = "mirror", feature = "glass"))]
+    #[test]
+    fn the_per_render_plan_decides_as_each_path_would() {
+        let mut skips = [Skip::ALL; 11];
+        skips[1] = Skip::NONE;
+        let offs: [fn(&mut Skip); 9] = [
+            |s| s.shadow_occluders = false,
+            |s| s.view_culling = false,
+            |s| s.specialize = false,
+            |s| s.horizon = false,
+            |s| s.unreachable_lights = false,
+            |s| s.closed = false,
+            |s| s.slabs = false,
+            |s| s.bvh = false,
+            |s| s.windows = false,
+        ];
+        for (skip, off) in skips.iter_mut().skip(2).zip(offs) {
+            off(skip);
+        }
+        for (text, lights, windows) in [
+            (include_str!("../scenes/cornell.scene"), 1, false),
+            (include_str!("../scenes/smallpt.scene"), 1, true),
+            (include_str!("../scenes/furnace.scene"), 0, false),
+        ] {
+            let scene: Scene<16, 8, 8> = crate::parse::parse_with_capacity(text).unwrap();
+            assert_eq!(scene.lights().len(), lights);
+            assert_eq!(!scene.analysis().windows.is_empty(), windows);
+            for skip in skips {
+                let options = Options {
+                    skip,
+                    ..Options::default()
+                };
+                let r = Renderer::new(&scene, 12, 9).unwrap().options(options);
+                let mut stats = Stats::default();
+                for (x, y, i) in [(0, 0, 0), (5, 4, 3), (11, 8, 7), (6, 2, 15)] {
+                    let planned = r.sample(x, y, i, &mut stats);
+                    let pixel = r.pixel_sampler(x, y);
+                    let mut s = pixel.stream(i);
+                    let ray = r.primary_ray(&mut s, x, y);
+                    let per_path =
+                        integrator::radiance(r.scene(), ray, &mut s, &options, &mut stats);
+                    let bits = |c: Color| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()];
+                    assert_eq!(bits(planned), bits(per_path), "{skip:?} ({x}, {y}) #{i}");
+                }
+            }
         }
     }
 }
