@@ -223,7 +223,8 @@ impl<'a> Renderer<'a> {
     }
 }
 
-#[cfg(test)]
+// the test parses scenes that use mirrors and glass
+#[cfg(all(test, feature = "parser", feature = "mirror", feature = "glass"))]
 mod tests {
     use super::*;
     use crate::integrator::Skip;
@@ -234,7 +235,6 @@ mod tests {
     /// called on the same camera ray and stream, with every skip on, with
     /// each off and with none. (cornell: one light; smallpt: a light cut
     /// by its walls, so windows; furnace: no light.)
-    #[cfg(all(feature = "parser", feature = "mirror", feature = "glass"))]
     #[test]
     fn the_per_render_plan_decides_as_each_path_would() {
         let mut skips = [Skip::ALL; 11];
