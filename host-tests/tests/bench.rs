@@ -8,14 +8,18 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
+/// The furnace scene with its reference: the cheapest bench scene.
+fn furnace() -> Vec<bench::BenchScene> {
+    bench::discover_scenes(&root().join("scenes"), &root().join("host-tests/data"))
+        .unwrap()
+        .into_iter()
+        .filter(|s| s.name == "furnace")
+        .collect()
+}
+
 #[test]
 fn bench_writes_every_output_and_mse_falls_as_one_over_n() {
-    let scenes: Vec<_> =
-        bench::discover_scenes(&root().join("scenes"), &root().join("host-tests/data"))
-            .unwrap()
-            .into_iter()
-            .filter(|s| s.name == "furnace")
-            .collect();
+    let scenes = furnace();
     assert_eq!(scenes.len(), 1, "the furnace scene and its reference");
     // the reference's noise is read from its .json
     let ref_se = scenes[0].reference_rms_se;
@@ -84,12 +88,7 @@ fn missing_directories_are_named_in_the_error() {
 /// allocation (what it loses there is the rounds' rounding and its floor).
 #[test]
 fn the_adaptive_variant_spends_the_same_budget() {
-    let scenes: Vec<_> =
-        bench::discover_scenes(&root().join("scenes"), &root().join("host-tests/data"))
-            .unwrap()
-            .into_iter()
-            .filter(|s| s.name == "furnace")
-            .collect();
+    let scenes = furnace();
     let variants: Vec<_> = bench::standard_variants()
         .into_iter()
         .filter(|v| v.name == "adaptive" || v.name == "mis")
