@@ -8,15 +8,20 @@
 //!
 //! * next-event estimation: one emitter is chosen (with probability
 //!   proportional to its radiance times the solid angle it subtends, zero for
-//!   emitters entirely below the surface's horizon), a direction is sampled
-//!   uniformly in its cone, and a shadow ray tests visibility;
+//!   emitters entirely below the surface's horizon; at a glossy vertex mixed
+//!   with its radiance times its share of the lobe, so that the light the
+//!   lobe sees is sampled most), a direction is sampled uniformly in its
+//!   cone, and a shadow ray tests visibility;
 //! * BSDF sampling: a direction sampled from the BSDF ([`Bsdf::sample`];
 //!   the Lambertian's cosine-distributed) continues the path; if it hits an
 //!   emitter, the emission is weighted against the light-sampling pdf of
 //!   that direction.
 //!
 //! Mirror and glass vertices are Dirac deltas: emitters seen through them get
-//! full weight. Paths end by Russian roulette on the throughput after
+//! full weight. The first non-delta vertex of a path (wherever mirrors and
+//! glass put it) takes its bounce, its light choice and its light sample
+//! from the pixel's stratified pairs; later vertices use independent
+//! numbers. Paths end by Russian roulette on the throughput after
 //! [`Options::rr_start`] bounces (survival `min(1, rr_gain × max
 //! component)`, [`Options::rr_gain`]), which keeps the estimator unbiased. A hard
 //! depth cap ([`Options::max_depth`], default 256) exists only as a guard
@@ -120,9 +125,9 @@ impl Default for Skip {
 pub struct Options {
     /// Direct-lighting strategy.
     pub strategy: Strategy,
-    /// Stratified (Owen-scrambled Sobol) samples for the pixel position, the
-    /// first bounce and the first light sample; independent random numbers
-    /// otherwise.
+    /// Stratified (Owen-scrambled Sobol) samples for the pixel position and,
+    /// at a path's first non-delta vertex, its bounce, its light choice and
+    /// its light sample; independent random numbers otherwise.
     pub stratified: bool,
     /// Use micromath's approximate trigonometry in direction sampling.
     pub fast_math: bool,
@@ -195,6 +200,42 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     1.0 / (1.0 + r * r)
 }
 
+/// The stratified pair whose first number picks the light at a path's first
+/// non-delta vertex.
+const SELECT_PAIR: u32 = 4;
+
+/// The weight of the choice by radiance × solid angle in the choice of a
+/// light at a glossy vertex ([`Ctx::choose_light_glossy`]): every light
+/// keeps at least this fraction of the probability it would have at a
+/// Lambertian vertex.
+const DEFENSIVE: f32 = 0.25;
+
+/// The probability of choosing a light whose radiance × solid angle is `w`
+/// and radiance × lobe share is `g`, of sums `sum` and `gsum`.
+#[inline(always)]
+fn mixed_selection(w: f32, g: f32, sum: f32, gsum: f32) -> f32 {
+    if gsum > 0.0 {
+        DEFENSIVE * (w / sum) + (1.0 - DEFENSIVE) * (g / gsum)
+    } else {
+        w / sum
+    }
+}
+
+/// A light's share of a glossy lobe (`metal::light_share`; none in a
+/// build without metal, which chooses no light by it).
+#[inline(always)]
+fn light_share(alpha: f32, wo: Vec3, n: Vec3, to_c: Vec3, d2: f32, omc: f32) -> f32 {
+    #[cfg(feature = "metal")]
+    {
+        crate::material::metal::light_share(alpha, wo, n, to_c, d2, omc)
+    }
+    #[cfg(not(feature = "metal"))]
+    {
+        let _ = (alpha, wo, n, to_c, d2, omc);
+        0.0
+    }
+}
+
 /// Where the last diffuse vertex was, for weighting an emitter that its
 /// BSDF sample hits.
 #[derive(Clone, Copy)]
@@ -210,6 +251,13 @@ struct PrevVertex {
     light_omc: f32,
     /// Whether the horizon test was done there.
     horizon: bool,
+    /// The width of the glossy lobe whose share chose the light there, 0
+    /// where lights were chosen by radiance × solid angle alone.
+    alpha: f32,
+    /// With `alpha`: the direction back along the ray that reached that
+    /// vertex, and the sum of the lights' shares of the lobe.
+    wo: Vec3,
+    share_sum: f32,
 }
 
 /// The light chosen for next-event estimation at a vertex.
@@ -388,9 +436,14 @@ impl<'a> Ctx<'_, 'a> {
         x: Vec3,
         n: Vec3,
         horizon: bool,
+        first: bool,
         stream: &mut SampleStream<'_>,
     ) -> (Option<LightChoice>, f32) {
-        let u = stream.next_f32();
+        let u = if first {
+            stream.stratified_2d(SELECT_PAIR)[0]
+        } else {
+            stream.next_f32()
+        };
         let mut sum = 0.0;
         for &l in self.plan.lights {
             sum += self.light_weight(x, n, l as usize, horizon);
@@ -423,6 +476,70 @@ impl<'a> Ctx<'_, 'a> {
         (chosen, sum)
     }
 
+    /// [`Ctx::choose_light`] at a vertex of a glossy lobe of width `alpha`
+    /// ([`Lobe::selective_alpha`]): each light's probability mixes its
+    /// share of radiance × solid angle (weight [`DEFENSIVE`]) with its
+    /// share of radiance × its part of the lobe (`metal::light_share`), so
+    /// that the light in the lobe is sampled most and no light that can
+    /// contribute is left out. Returns the choice and both weight sums.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn choose_light_glossy(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        horizon: bool,
+        first: bool,
+        stream: &mut SampleStream<'_>,
+        alpha: f32,
+        wo: Vec3,
+    ) -> (Option<LightChoice>, f32, f32) {
+        let u = if first {
+            stream.stratified_2d(SELECT_PAIR)[0]
+        } else {
+            stream.next_f32()
+        };
+        let (mut sum, mut gsum) = (0.0, 0.0);
+        for &l in self.plan.lights {
+            let i = l as usize;
+            if let Some((to_c, d2, r2)) = self.samplable(x, n, i, horizon) {
+                let lum = self.light_lum(i);
+                let omc = light::one_minus_cos_max(r2, d2);
+                sum += lum * omc;
+                gsum += lum * light_share(alpha, wo, n, to_c, d2, omc);
+            }
+        }
+        if !(sum > 0.0) {
+            return (None, 0.0, 0.0);
+        }
+        let mut acc = 0.0;
+        let mut chosen = None;
+        for &l in self.plan.lights {
+            let i = l as usize;
+            let Some((to_c, d2, r2)) = self.samplable(x, n, i, horizon) else {
+                continue;
+            };
+            let lum = self.light_lum(i);
+            let omc = light::one_minus_cos_max(r2, d2);
+            let w = lum * omc;
+            if w > 0.0 {
+                let g = lum * light_share(alpha, wo, n, to_c, d2, omc);
+                let p_sel = mixed_selection(w, g, sum, gsum);
+                acc += p_sel;
+                chosen = Some(LightChoice {
+                    sphere: i,
+                    p_sel,
+                    to_c,
+                    d2,
+                });
+                if u < acc {
+                    break;
+                }
+            }
+        }
+        (chosen, sum, gsum)
+    }
+
     /// Solid-angle pdf with which next-event estimation at `prev` would have
     /// produced a direction toward light sphere `i` (selection included).
     #[inline]
@@ -443,9 +560,24 @@ impl<'a> Ctx<'_, 'a> {
         if !self.plan.lights.contains(&(i as u16)) {
             return 0.0;
         }
-        let Some((_, d2, r2)) = self.samplable(prev.point, prev.normal, i, prev.horizon) else {
+        let Some((to_c, d2, r2)) = self.samplable(prev.point, prev.normal, i, prev.horizon) else {
             return 0.0;
         };
+        if cfg!(feature = "metal") && prev.alpha > 0.0 {
+            // chosen by choose_light_glossy: the same operands, the same bits
+            if !(prev.weight_sum > 0.0) {
+                return 0.0;
+            }
+            let lum = self.light_lum(i);
+            let omc = light::one_minus_cos_max(r2, d2);
+            let w = lum * omc;
+            let g = lum * light_share(prev.alpha, prev.wo, prev.normal, to_c, d2, omc);
+            let p_sel = mixed_selection(w, g, prev.weight_sum, prev.share_sum);
+            return match window_of(self.windows(), i) {
+                Some(win) if win.covers(prev.point) => p_sel * win.pdf(prev.point, dir),
+                _ => p_sel / (math::TWO_PI * omc),
+            };
+        }
         if let Some(w) = window_of(self.windows(), i)
             && w.covers(prev.point)
         {
@@ -527,8 +659,16 @@ fn trace<const MANY: bool, const TREE: bool>(
     let mut thr = Color::ONE;
     let mut ray = ray;
     let mut from = ObjectId::NONE;
-    // true for the camera ray and after mirror/glass: emitters get full weight
-    let mut specular = true;
+    // what the last vertex was, in one register: emitters get full weight
+    // after the camera (the eye is a delta) and after mirror or glass
+    // (`DELTA` and up); the first non-delta vertex, wherever mirrors and
+    // glass put it, draws its numbers from the pixel's stratified pairs
+    // (`EYE`, kept through deltas; a render without stratification starts
+    // at `DELTA`)
+    const NON_DELTA: u8 = 0;
+    const DELTA: u8 = 1;
+    const EYE: u8 = 2;
+    let mut last = if opts.stratified { EYE } else { DELTA };
     // undoes the (eta_i/eta_t)^2 radiance scaling for Russian roulette, so
     // that paths inside glass are not killed for a factor that cancels on exit
     let mut rr_scale = 1.0f32;
@@ -539,6 +679,9 @@ fn trace<const MANY: bool, const TREE: bool>(
         weight_sum: 0.0,
         light_omc: 0.0,
         horizon: false,
+        alpha: 0.0,
+        wo: Vec3::ZERO,
+        share_sum: 0.0,
     };
     // counted here and added to `stats` once per path (u64 additions are
     // four instructions each on a 32-bit core)
@@ -579,19 +722,35 @@ fn trace<const MANY: bool, const TREE: bool>(
                 };
                 let wo = -ray.dir;
                 let mut weight_sum = 0.0;
+                let mut share_sum = 0.0;
                 let mut light_omc = 0.0;
                 let horizon = ctx.horizon_at(hit.object);
                 if opts.strategy != Strategy::BsdfOnly && !ctx.plan.lights.is_empty() {
                     // drawn before the light is chosen, so that skipping a
                     // light below the horizon never shifts the random numbers
-                    let u = if depth == 0 && opts.stratified {
+                    let u = if last == EYE {
                         stream.stratified_2d(2)
                     } else {
                         stream.next_2d()
                     };
                     let f = thr * lobe.tint();
                     if MANY {
-                        let (choice, sum) = ctx.choose_light(hit.point, n, horizon, stream);
+                        let alpha = lobe.selective_alpha();
+                        let (choice, sum) = if cfg!(feature = "metal") && alpha > 0.0 {
+                            let (c, sum, gsum) = ctx.choose_light_glossy(
+                                hit.point,
+                                n,
+                                horizon,
+                                last == EYE,
+                                stream,
+                                alpha,
+                                wo,
+                            );
+                            share_sum = gsum;
+                            (c, sum)
+                        } else {
+                            ctx.choose_light(hit.point, n, horizon, last == EYE, stream)
+                        };
                         weight_sum = sum;
                         if let Some(c) = choice {
                             let through = match window_of(ctx.windows(), c.sphere) {
@@ -678,7 +837,7 @@ fn trace<const MANY: bool, const TREE: bool>(
                         }
                     }
                 }
-                let u = if depth == 0 && opts.stratified {
+                let u = if last == EYE {
                     stream.stratified_2d(1)
                 } else {
                     stream.next_2d()
@@ -686,17 +845,26 @@ fn trace<const MANY: bool, const TREE: bool>(
                 let Some(bs) = lobe.sample(wo, n, u, opts.fast_math) else {
                     break;
                 };
-                prev = PrevVertex {
-                    point: hit.point,
-                    normal: n,
-                    bsdf_pdf: bs.pi_pdf * math::INV_PI,
-                    weight_sum,
-                    light_omc,
-                    horizon,
-                };
+                prev.point = hit.point;
+                prev.normal = n;
+                prev.bsdf_pdf = bs.pi_pdf * math::INV_PI;
+                prev.weight_sum = weight_sum;
+                prev.light_omc = light_omc;
+                prev.horizon = horizon;
+                // the lobe's fields only where a glossy lobe chose the
+                // light (a Lambertian vertex stores one zero)
+                if cfg!(feature = "metal") {
+                    if share_sum > 0.0 {
+                        prev.alpha = lobe.selective_alpha();
+                        prev.wo = wo;
+                        prev.share_sum = share_sum;
+                    } else {
+                        prev.alpha = 0.0;
+                    }
+                }
                 // f · cos / pdf (the Lambertian's: its albedo, exactly)
                 thr *= bs.weight;
-                specular = false;
+                last = NON_DELTA;
                 ray = hit.spawn_on(n, bs.dir);
             }};
         }
@@ -707,7 +875,7 @@ fn trace<const MANY: bool, const TREE: bool>(
             Scatter::Emit(le) => {
                 // emits on the outward side only, reflects nothing
                 if ray.dir.dot(hit.normal) < 0.0 {
-                    let w = if specular {
+                    let w = if last != NON_DELTA {
                         1.0
                     } else {
                         match opts.strategy {
@@ -732,7 +900,7 @@ fn trace<const MANY: bool, const TREE: bool>(
             Scatter::Delta(ds) => {
                 thr *= ds.weight;
                 rr_scale /= ds.scale;
-                specular = true;
+                last = last.max(DELTA);
                 ray = hit.spawn(ds.dir);
             }
             Scatter::Absorb => break,

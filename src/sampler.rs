@@ -271,8 +271,9 @@ pub struct SampleStream<'p> {
 
 impl SampleStream<'_> {
     /// Stratified 2-D point for dimension pair `pair` (0: pixel position,
-    /// 1: first-bounce direction, 2: first light sample; higher pairs are
-    /// further independent Owen-scrambled Sobol sequences). Pair 0 takes the
+    /// 1: first-bounce direction, 2: first light sample, 3: lens, 4: first
+    /// light choice; higher pairs are further independent Owen-scrambled
+    /// Sobol sequences). Pair 0 takes the
     /// points in sequence order ([`sobol_2d_unshuffled`]); every other pair
     /// shuffles them.
     #[inline(always)]

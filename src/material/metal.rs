@@ -194,6 +194,11 @@ impl Lobe for Metal {
         (self.g1(li), self.pi_pdf(lo, li))
     }
 
+    #[inline(always)]
+    fn selective_alpha(&self) -> f32 {
+        self.alpha
+    }
+
     /// [`Metal::sample_local`] about `n`, for world directions.
     #[inline(never)]
     fn sample(&self, wo: Vec3, n: Vec3, u: [f32; 2], fast: bool) -> Option<BsdfSample> {
@@ -205,4 +210,41 @@ impl Lobe for Metal {
             ..s
         })
     }
+}
+
+/// A light's share of a GGX lobe of width `alpha`, for choosing which light
+/// next-event estimation samples at a glossy vertex: about the fraction of
+/// the lobe's samples that would land in the light's cone, at most 1.
+///
+/// `wo` is the unit direction back along the incoming ray, `n` the unit
+/// normal facing it, `to_c` the vector to the light's centre (squared length
+/// `d2`), `omc` the cone's `1 − cos θ_max`. The lobe's density
+/// `D(h) / (4 cos θo)` is taken at the direction of the cone nearest the
+/// mirror direction, whose half vector is half that angle from the normal,
+/// times the cone's solid angle `2π omc`. Only an estimate of the light's
+/// importance: the integrator mixes it with the choice by radiance × solid
+/// angle, so that no light that can contribute is ever left out.
+#[cfg(feature = "metal")]
+pub(crate) fn light_share(alpha: f32, wo: Vec3, n: Vec3, to_c: Vec3, d2: f32, omc: f32) -> f32 {
+    let cos_o = n.dot(wo);
+    let r = n * (2.0 * cos_o) - wo;
+    let cos_g = r.dot(to_c) / math::sqrt(d2);
+    let cos_m = 1.0 - omc;
+    // cos of the angle from r to the nearest direction of the cone
+    let cos_d = if cos_g >= cos_m {
+        1.0
+    } else {
+        let sin_g = math::sqrt(math::max(0.0, 1.0 - cos_g * cos_g));
+        let sin_m = math::sqrt(math::max(0.0, omc * (2.0 - omc)));
+        cos_g * cos_m + sin_g * sin_m
+    };
+    // π D at the half angle: cos² and sin² of half the angle
+    let c2 = 0.5 + 0.5 * cos_d;
+    let s2 = 0.5 - 0.5 * cos_d;
+    let a2 = alpha * alpha;
+    let den = c2 * a2 + s2;
+    let pi_d = a2 / (den * den);
+    // 2π omc · D / (4 cos θo), capped at all of the lobe
+    let share = omc * pi_d / (2.0 * cos_o);
+    if share < 1.0 { share } else { 1.0 }
 }

@@ -220,6 +220,14 @@ pub trait Lobe: Copy {
     /// trigonometry); `None` ends the path (a metal's reflection below the
     /// surface, where `f` is zero).
     fn sample(&self, wo: Vec3, n: Vec3, u: [f32; 2], fast: bool) -> Option<BsdfSample>;
+    /// The lobe's width for choosing lights: 0 for a lobe whose value does
+    /// not favour one light over another (the Lambertian, whose lights are
+    /// chosen by radiance × solid angle alone); a metal's α, whose lights
+    /// are chosen by their share of the lobe too ([`metal::light_share`]).
+    #[inline(always)]
+    fn selective_alpha(&self) -> f32 {
+        0.0
+    }
 }
 
 impl Bsdf {
