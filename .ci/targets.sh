@@ -124,17 +124,9 @@ plan_spp() {
     case $(basename "$1" .scene) in spheres | many | gloss | dof) echo 4 ;; *) echo 16 ;; esac
 }
 
-# flash: the loaded sections (code, read-only data, the .data image, the
-# vector table); static RAM: .data + .bss + .uninit (not the stack)
-elf_figures() {
-    local flash=0 ram=0 name type addr off size es flg rest
-    while read -r name type addr off size es flg rest; do
-        [[ "$type" =~ ^(PROGBITS|NOBITS)$ && "$flg" == *A* ]] || continue
-        [ "$type" = PROGBITS ] && flash=$((flash + 16#$size))
-        case $name in .data | .bss | .uninit) ram=$((ram + 16#$size)) ;; esac
-    done < <(readelf -SW "$1" | sed -n 's/^ *\[ *[0-9]*\] *//p')
-    echo "$flash $ram"
-}
+# elf_figures ELF: "FLASH RAM" (flash: the loaded sections, code, read-only
+# data, the .data image, the vector table; static RAM: .data + .bss + .uninit)
+. "$(dirname "${BASH_SOURCE[0]}")/elf.sh"
 
 # compiler-builtins' soft-double routines (as firmware.sh checks)
 SOFT_DOUBLE=' (__aeabi_(d[a-z0-9]+|(f|i|ui|l|ul)2d)|__(add|sub|mul|div|neg)df3|__(eq|ne|lt|le|gt|ge|un|cmp)df2|__(extendsfdf2|truncdfsf2)|__fix(uns)?df[sdt]i|__float(un)?[sdt]idf|__powidf2)$'

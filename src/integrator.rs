@@ -204,6 +204,17 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
 /// non-delta vertex.
 const SELECT_PAIR: u32 = 4;
 
+/// The uniform number that chooses a light: stratified at a path's first
+/// non-delta vertex (`first`), independent elsewhere.
+#[inline(always)]
+fn selection_number(first: bool, stream: &mut SampleStream<'_>) -> f32 {
+    if first {
+        stream.stratified_2d(SELECT_PAIR)[0]
+    } else {
+        stream.next_f32()
+    }
+}
+
 /// The weight of the choice by radiance × solid angle in the choice of a
 /// light at a glossy vertex ([`Ctx::choose_light_glossy`]): every light
 /// keeps at least this fraction of the probability it would have at a
@@ -439,11 +450,7 @@ impl<'a> Ctx<'_, 'a> {
         first: bool,
         stream: &mut SampleStream<'_>,
     ) -> (Option<LightChoice>, f32) {
-        let u = if first {
-            stream.stratified_2d(SELECT_PAIR)[0]
-        } else {
-            stream.next_f32()
-        };
+        let u = selection_number(first, stream);
         let mut sum = 0.0;
         for &l in self.plan.lights {
             sum += self.light_weight(x, n, l as usize, horizon);
@@ -494,11 +501,7 @@ impl<'a> Ctx<'_, 'a> {
         alpha: f32,
         wo: Vec3,
     ) -> (Option<LightChoice>, f32, f32) {
-        let u = if first {
-            stream.stratified_2d(SELECT_PAIR)[0]
-        } else {
-            stream.next_f32()
-        };
+        let u = selection_number(first, stream);
         let (mut sum, mut gsum) = (0.0, 0.0);
         for &l in self.plan.lights {
             let i = l as usize;

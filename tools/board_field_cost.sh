@@ -70,17 +70,9 @@ for n in "${NS[@]}"; do
         fail "$n: a field has 2 to 4096 spheres (the host CLI's capacity)"
 done
 
-# flash: the loaded sections (code, read-only data, the .data image, the
-# vector table); static RAM: .data + .bss + .uninit (as .ci/targets.sh)
-elf_figures() {
-    local flash=0 ram=0 name type addr off size es flg rest
-    while read -r name type addr off size es flg rest; do
-        [[ "$type" =~ ^(PROGBITS|NOBITS)$ && "$flg" == *A* ]] || continue
-        [ "$type" = PROGBITS ] && flash=$((flash + 16#$size))
-        case $name in .data | .bss | .uninit) ram=$((ram + 16#$size)) ;; esac
-    done < <(readelf -SW "$1" | sed -n 's/^ *\[ *[0-9]*\] *//p')
-    echo "$flash $ram"
-}
+# elf_figures ELF: "FLASH RAM" (flash: the loaded sections, code, read-only
+# data, the .data image, the vector table; static RAM: .data + .bss + .uninit)
+. "$(dirname "${BASH_SOURCE[0]}")/../.ci/elf.sh"
 
 # build_one N CONFIG: the firmware for field N, tree or list, copied to
 # $OUT/field-N.CONFIG.elf
