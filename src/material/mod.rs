@@ -223,7 +223,7 @@ pub trait Lobe: Copy {
     /// The lobe's width for choosing lights: 0 for a lobe whose value does
     /// not favour one light over another (the Lambertian, whose lights are
     /// chosen by radiance × solid angle alone); a metal's α, whose lights
-    /// are chosen by their share of the lobe too ([`metal::light_share`]).
+    /// are chosen by their share of the lobe too.
     #[inline(always)]
     fn selective_alpha(&self) -> f32 {
         0.0
