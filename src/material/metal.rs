@@ -248,3 +248,77 @@ pub(crate) fn light_share(alpha: f32, wo: Vec3, n: Vec3, to_c: Vec3, d2: f32, om
     let share = omc * pi_d / (2.0 * cos_o);
     if share < 1.0 { share } else { 1.0 }
 }
+
+#[cfg(all(test, feature = "metal"))]
+mod tests {
+    use super::*;
+
+    fn metal(alpha: f32) -> Metal {
+        Metal {
+            tint: Color::ONE,
+            alpha,
+        }
+    }
+
+    /// A light's share of the lobe is a fraction: finite and in [0, 1] for
+    /// every width of the format, from normal to grazing incidence (cos θo
+    /// down to 0), for cones from 1e-12 sr to a hemisphere, in front of and
+    /// behind the surface.
+    #[test]
+    fn light_share_is_a_finite_fraction() {
+        let n = Vec3::new(0.0, 0.0, 1.0);
+        for alpha in [MIN_ALPHA, 0.02, 0.18, 0.45, MAX_ALPHA] {
+            for cos_o in [0.0f32, 1e-7, 1e-3, 0.1, 0.5, 0.9, 1.0] {
+                let wo = Vec3::new(math::sqrt(1.0 - cos_o * cos_o), 0.0, cos_o);
+                for k in 0..64 {
+                    let (s, c) = math::sincos(k as f32 * 0.41);
+                    let to_c = Vec3::new(s, c * 0.6, c * 0.8 - 0.3) * (1.0 + k as f32);
+                    let d2 = to_c.length_squared();
+                    for omc in [1e-12f32, 1e-6, 1e-3, 0.1, 0.7, 1.0] {
+                        let g = light_share(alpha, wo, n, to_c, d2, omc);
+                        assert!(
+                            g.is_finite() && (0.0..=1.0).contains(&g),
+                            "alpha {alpha}, cos_o {cos_o}, k {k}, omc {omc}: share {g}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// For a light small against the lobe, centred on the mirror direction,
+    /// the share is the lobe's sampling density there times the cone's solid
+    /// angle, `2π omc · pdf(wo, r) / G1(wo)` (the share leaves out the
+    /// masking of `wo`); 20° away from it a sharp lobe gives such a light
+    /// almost nothing.
+    #[test]
+    fn light_share_is_the_lobe_mass_in_the_cone() {
+        let n = Vec3::new(0.0, 0.0, 1.0);
+        for alpha in [0.02f32, 0.18, 0.45] {
+            let m = metal(alpha);
+            for cos_o in [0.3f32, 0.7, 1.0] {
+                let wo = Vec3::new(math::sqrt(1.0 - cos_o * cos_o), 0.0, cos_o);
+                let r = n * (2.0 * cos_o) - wo;
+                let omc = 1e-7;
+                let share = light_share(alpha, wo, n, r * 5.0, 25.0, omc);
+                let mass = 2.0 * math::PI * omc * m.pdf(wo, r) / m.g1(wo);
+                assert!(
+                    (share / mass - 1.0).abs() < 1e-3,
+                    "alpha {alpha}, cos_o {cos_o}: share {share}, lobe mass {mass}"
+                );
+                // 20 degrees from r, rotated about the y axis
+                let (s, c) = math::sincos(20.0 * math::PI / 180.0);
+                let off = Vec3::new(r.x * c + r.z * s, r.y, r.z * c - r.x * s);
+                let far = light_share(alpha, wo, n, off * 5.0, 25.0, omc);
+                if alpha == 0.02 {
+                    assert!(far < share * 1e-3, "cos_o {cos_o}: {far} against {share}");
+                } else {
+                    assert!(
+                        far < share,
+                        "alpha {alpha}, cos_o {cos_o}: {far} against {share}"
+                    );
+                }
+            }
+        }
+    }
+}
