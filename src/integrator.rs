@@ -254,7 +254,8 @@ struct PrevVertex {
     point: Vec3,
     normal: Vec3,
     bsdf_pdf: f32,
-    /// Sum of light-selection weights at that vertex.
+    /// Sum of light-selection weights at that vertex, negated where a
+    /// glossy lobe chose the light ([`GlossyChoice`] holds the rest).
     weight_sum: f32,
     /// With one light: its 1 − cos θ_max seen from that vertex, as
     /// next-event estimation computed it (0: it could not be sampled there),
@@ -262,12 +263,19 @@ struct PrevVertex {
     light_omc: f32,
     /// Whether the horizon test was done there.
     horizon: bool,
-    /// The width of the glossy lobe whose share chose the light there, 0
-    /// where lights were chosen by radiance × solid angle alone.
+}
+
+/// What a glossy vertex's light choice depended on, for the pdf of an
+/// emitter its BSDF sample hits. Kept apart from [`PrevVertex`] and
+/// written and read only out of line, so that the loop of a scene without
+/// metal carries none of it.
+#[derive(Clone, Copy)]
+struct GlossyChoice {
+    /// The lobe's width.
     alpha: f32,
-    /// With `alpha`: the direction back along the ray that reached that
-    /// vertex, and the sum of the lights' shares of the lobe.
+    /// The direction back along the ray that reached the vertex.
     wo: Vec3,
+    /// The sum of the lights' shares of the lobe (radiance × share).
     share_sum: f32,
 }
 
@@ -488,7 +496,8 @@ impl<'a> Ctx<'_, 'a> {
     /// share of radiance × solid angle (weight [`DEFENSIVE`]) with its
     /// share of radiance × its part of the lobe (`metal::light_share`), so
     /// that the light in the lobe is sampled most and no light that can
-    /// contribute is left out. Returns the choice and both weight sums.
+    /// contribute is left out. Returns the choice and the sum of radiance ×
+    /// solid angle, and keeps the rest in `glossy` (for [`Ctx::light_pdf`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn choose_light_glossy(
@@ -500,7 +509,8 @@ impl<'a> Ctx<'_, 'a> {
         stream: &mut SampleStream<'_>,
         alpha: f32,
         wo: Vec3,
-    ) -> (Option<LightChoice>, f32, f32) {
+        glossy: &mut GlossyChoice,
+    ) -> (Option<LightChoice>, f32) {
         let u = selection_number(first, stream);
         let (mut sum, mut gsum) = (0.0, 0.0);
         for &l in self.plan.lights {
@@ -513,8 +523,13 @@ impl<'a> Ctx<'_, 'a> {
             }
         }
         if !(sum > 0.0) {
-            return (None, 0.0, 0.0);
+            return (None, 0.0);
         }
+        *glossy = GlossyChoice {
+            alpha,
+            wo,
+            share_sum: gsum,
+        };
         let mut acc = 0.0;
         let mut chosen = None;
         for &l in self.plan.lights {
@@ -540,13 +555,48 @@ impl<'a> Ctx<'_, 'a> {
                 }
             }
         }
-        (chosen, sum, gsum)
+        (chosen, sum)
+    }
+
+    /// [`Ctx::light_pdf`] where [`Ctx::choose_light_glossy`] chose the light
+    /// at `prev`: the same operands, the same bits. Out of line, so that the
+    /// loop of a scene without metal keeps its registers.
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn glossy_light_pdf(
+        &self,
+        point: Vec3,
+        normal: Vec3,
+        horizon: bool,
+        sum: f32,
+        glossy: &GlossyChoice,
+        i: usize,
+        dir: Vec3,
+    ) -> f32 {
+        let Some((to_c, d2, r2)) = self.samplable(point, normal, i, horizon) else {
+            return 0.0;
+        };
+        let lum = self.light_lum(i);
+        let omc = light::one_minus_cos_max(r2, d2);
+        let w = lum * omc;
+        let g = lum * light_share(glossy.alpha, glossy.wo, normal, to_c, d2, omc);
+        let p_sel = mixed_selection(w, g, sum, glossy.share_sum);
+        match window_of(self.windows(), i) {
+            Some(win) if win.covers(point) => p_sel * win.pdf(point, dir),
+            _ => p_sel / (math::TWO_PI * omc),
+        }
     }
 
     /// Solid-angle pdf with which next-event estimation at `prev` would have
     /// produced a direction toward light sphere `i` (selection included).
     #[inline]
-    fn light_pdf<const MANY: bool>(&self, prev: &PrevVertex, i: usize, dir: Vec3) -> f32 {
+    fn light_pdf<const MANY: bool>(
+        &self,
+        prev: &PrevVertex,
+        glossy: &GlossyChoice,
+        i: usize,
+        dir: Vec3,
+    ) -> f32 {
         if !MANY {
             // bit for bit the pdf from the point and normal: the same
             // one_minus_cos_max of the same operands, or the same window
@@ -563,24 +613,20 @@ impl<'a> Ctx<'_, 'a> {
         if !self.plan.lights.contains(&(i as u16)) {
             return 0.0;
         }
-        let Some((to_c, d2, r2)) = self.samplable(prev.point, prev.normal, i, prev.horizon) else {
+        if cfg!(feature = "metal") && prev.weight_sum < 0.0 {
+            return self.glossy_light_pdf(
+                prev.point,
+                prev.normal,
+                prev.horizon,
+                -prev.weight_sum,
+                glossy,
+                i,
+                dir,
+            );
+        }
+        let Some((_, d2, r2)) = self.samplable(prev.point, prev.normal, i, prev.horizon) else {
             return 0.0;
         };
-        if cfg!(feature = "metal") && prev.alpha > 0.0 {
-            // chosen by choose_light_glossy: the same operands, the same bits
-            if !(prev.weight_sum > 0.0) {
-                return 0.0;
-            }
-            let lum = self.light_lum(i);
-            let omc = light::one_minus_cos_max(r2, d2);
-            let w = lum * omc;
-            let g = lum * light_share(prev.alpha, prev.wo, prev.normal, to_c, d2, omc);
-            let p_sel = mixed_selection(w, g, prev.weight_sum, prev.share_sum);
-            return match window_of(self.windows(), i) {
-                Some(win) if win.covers(prev.point) => p_sel * win.pdf(prev.point, dir),
-                _ => p_sel / (math::TWO_PI * omc),
-            };
-        }
         if let Some(w) = window_of(self.windows(), i)
             && w.covers(prev.point)
         {
@@ -675,6 +721,15 @@ fn trace<const MANY: bool, const TREE: bool>(
     // undoes the (eta_i/eta_t)^2 radiance scaling for Russian roulette, so
     // that paths inside glass are not killed for a factor that cancels on exit
     let mut rr_scale = 1.0f32;
+    // The last non-delta vertex, read only after one has set it. With metal
+    // an Option, empty until then: zeroing the larger record at every
+    // path's start cost a call to memclr per path on a Cortex-M4 (59
+    // instructions of furnace.scene's 1,002, tools/profile.sh). Without
+    // metal the record as it always was: there an Option cost 172 bytes of
+    // a 64 KiB firmware's flash.
+    #[cfg(feature = "metal")]
+    let mut prev: Option<PrevVertex> = None;
+    #[cfg(not(feature = "metal"))]
     let mut prev = PrevVertex {
         point: Vec3::ZERO,
         normal: Vec3::ZERO,
@@ -682,6 +737,8 @@ fn trace<const MANY: bool, const TREE: bool>(
         weight_sum: 0.0,
         light_omc: 0.0,
         horizon: false,
+    };
+    let mut glossy = GlossyChoice {
         alpha: 0.0,
         wo: Vec3::ZERO,
         share_sum: 0.0,
@@ -725,7 +782,6 @@ fn trace<const MANY: bool, const TREE: bool>(
                 };
                 let wo = -ray.dir;
                 let mut weight_sum = 0.0;
-                let mut share_sum = 0.0;
                 let mut light_omc = 0.0;
                 let horizon = ctx.horizon_at(hit.object);
                 if opts.strategy != Strategy::BsdfOnly && !ctx.plan.lights.is_empty() {
@@ -740,7 +796,7 @@ fn trace<const MANY: bool, const TREE: bool>(
                     if MANY {
                         let alpha = lobe.selective_alpha();
                         let (choice, sum) = if cfg!(feature = "metal") && alpha > 0.0 {
-                            let (c, sum, gsum) = ctx.choose_light_glossy(
+                            let (c, sum) = ctx.choose_light_glossy(
                                 hit.point,
                                 n,
                                 horizon,
@@ -748,9 +804,10 @@ fn trace<const MANY: bool, const TREE: bool>(
                                 stream,
                                 alpha,
                                 wo,
+                                &mut glossy,
                             );
-                            share_sum = gsum;
-                            (c, sum)
+                            // negative: the glossy choice's pdf applies
+                            (c, -sum)
                         } else {
                             ctx.choose_light(hit.point, n, horizon, last == EYE, stream)
                         };
@@ -848,22 +905,21 @@ fn trace<const MANY: bool, const TREE: bool>(
                 let Some(bs) = lobe.sample(wo, n, u, opts.fast_math) else {
                     break;
                 };
-                prev.point = hit.point;
-                prev.normal = n;
-                prev.bsdf_pdf = bs.pi_pdf * math::INV_PI;
-                prev.weight_sum = weight_sum;
-                prev.light_omc = light_omc;
-                prev.horizon = horizon;
-                // the lobe's fields only where a glossy lobe chose the
-                // light (a Lambertian vertex stores one zero)
-                if cfg!(feature = "metal") {
-                    if share_sum > 0.0 {
-                        prev.alpha = lobe.selective_alpha();
-                        prev.wo = wo;
-                        prev.share_sum = share_sum;
-                    } else {
-                        prev.alpha = 0.0;
-                    }
+                let vertex = PrevVertex {
+                    point: hit.point,
+                    normal: n,
+                    bsdf_pdf: bs.pi_pdf * math::INV_PI,
+                    weight_sum,
+                    light_omc,
+                    horizon,
+                };
+                #[cfg(feature = "metal")]
+                {
+                    prev = Some(vertex);
+                }
+                #[cfg(not(feature = "metal"))]
+                {
+                    prev = vertex;
                 }
                 // f · cos / pdf (the Lambertian's: its albedo, exactly)
                 thr *= bs.weight;
@@ -885,11 +941,22 @@ fn trace<const MANY: bool, const TREE: bool>(
                             Strategy::BsdfOnly => 1.0,
                             Strategy::LightOnly => 0.0,
                             Strategy::Mis => {
-                                let pl = hit
-                                    .object
-                                    .as_sphere()
-                                    .map_or(0.0, |i| ctx.light_pdf::<MANY>(&prev, i, ray.dir));
-                                power_heuristic(prev.bsdf_pdf, pl)
+                                let weigh = |prev: &PrevVertex| {
+                                    let pl = hit.object.as_sphere().map_or(0.0, |i| {
+                                        ctx.light_pdf::<MANY>(prev, &glossy, i, ray.dir)
+                                    });
+                                    power_heuristic(prev.bsdf_pdf, pl)
+                                };
+                                match &prev {
+                                    #[cfg(feature = "metal")]
+                                    Some(prev) => weigh(prev),
+                                    // not reached: `last` is not NON_DELTA
+                                    // before the first non-delta vertex
+                                    #[cfg(feature = "metal")]
+                                    None => 1.0,
+                                    #[cfg(not(feature = "metal"))]
+                                    prev => weigh(prev),
+                                }
                             }
                         }
                     };
