@@ -268,7 +268,7 @@ struct PrevVertex {
 /// What a glossy vertex's light choice depended on, for the pdf of an
 /// emitter its BSDF sample hits. Kept apart from [`PrevVertex`] and
 /// written and read only out of line, so that the loop of a scene without
-/// metal carries none of it.
+/// metal does no more with it than set it up once per path.
 #[derive(Clone, Copy)]
 struct GlossyChoice {
     /// The lobe's width.
@@ -277,6 +277,18 @@ struct GlossyChoice {
     wo: Vec3,
     /// The sum of the lights' shares of the lobe (radiance × share).
     share_sum: f32,
+}
+
+/// A light's weights at a glossy vertex ([`Ctx::glossy_weights`]).
+struct GlossyWeights {
+    /// From the vertex to the light's centre, and its squared length.
+    to_c: Vec3,
+    d2: f32,
+    /// The light's `1 − cos θ_max` seen from the vertex.
+    omc: f32,
+    /// Radiance × solid angle, and radiance × its share of the lobe.
+    w: f32,
+    g: f32,
 }
 
 /// The light chosen for next-event estimation at a vertex.
@@ -491,6 +503,33 @@ impl<'a> Ctx<'_, 'a> {
         (chosen, sum)
     }
 
+    /// Light `i`'s two weights at a glossy vertex (`x`, `n`, lobe `alpha`
+    /// seen from `wo`), or `None` where it cannot be sampled: the one
+    /// computation behind both the choice ([`Ctx::choose_light_glossy`])
+    /// and its pdf ([`Ctx::glossy_light_pdf`]), so that they agree bit for
+    /// bit.
+    #[inline(always)]
+    fn glossy_weights(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        i: usize,
+        horizon: bool,
+        alpha: f32,
+        wo: Vec3,
+    ) -> Option<GlossyWeights> {
+        let (to_c, d2, r2) = self.samplable(x, n, i, horizon)?;
+        let lum = self.light_lum(i);
+        let omc = light::one_minus_cos_max(r2, d2);
+        Some(GlossyWeights {
+            to_c,
+            d2,
+            omc,
+            w: lum * omc,
+            g: lum * light_share(alpha, wo, n, to_c, d2, omc),
+        })
+    }
+
     /// [`Ctx::choose_light`] at a vertex of a glossy lobe of width `alpha`
     /// ([`Lobe::selective_alpha`]): each light's probability mixes its
     /// share of radiance × solid angle (weight [`DEFENSIVE`]) with its
@@ -514,12 +553,9 @@ impl<'a> Ctx<'_, 'a> {
         let u = selection_number(first, stream);
         let (mut sum, mut gsum) = (0.0, 0.0);
         for &l in self.plan.lights {
-            let i = l as usize;
-            if let Some((to_c, d2, r2)) = self.samplable(x, n, i, horizon) {
-                let lum = self.light_lum(i);
-                let omc = light::one_minus_cos_max(r2, d2);
-                sum += lum * omc;
-                gsum += lum * light_share(alpha, wo, n, to_c, d2, omc);
+            if let Some(gw) = self.glossy_weights(x, n, l as usize, horizon, alpha, wo) {
+                sum += gw.w;
+                gsum += gw.g;
             }
         }
         if !(sum > 0.0) {
@@ -534,21 +570,17 @@ impl<'a> Ctx<'_, 'a> {
         let mut chosen = None;
         for &l in self.plan.lights {
             let i = l as usize;
-            let Some((to_c, d2, r2)) = self.samplable(x, n, i, horizon) else {
+            let Some(gw) = self.glossy_weights(x, n, i, horizon, alpha, wo) else {
                 continue;
             };
-            let lum = self.light_lum(i);
-            let omc = light::one_minus_cos_max(r2, d2);
-            let w = lum * omc;
-            if w > 0.0 {
-                let g = lum * light_share(alpha, wo, n, to_c, d2, omc);
-                let p_sel = mixed_selection(w, g, sum, gsum);
+            if gw.w > 0.0 {
+                let p_sel = mixed_selection(gw.w, gw.g, sum, gsum);
                 acc += p_sel;
                 chosen = Some(LightChoice {
                     sphere: i,
                     p_sel,
-                    to_c,
-                    d2,
+                    to_c: gw.to_c,
+                    d2: gw.d2,
                 });
                 if u < acc {
                     break;
@@ -573,17 +605,14 @@ impl<'a> Ctx<'_, 'a> {
         i: usize,
         dir: Vec3,
     ) -> f32 {
-        let Some((to_c, d2, r2)) = self.samplable(point, normal, i, horizon) else {
+        let Some(gw) = self.glossy_weights(point, normal, i, horizon, glossy.alpha, glossy.wo)
+        else {
             return 0.0;
         };
-        let lum = self.light_lum(i);
-        let omc = light::one_minus_cos_max(r2, d2);
-        let w = lum * omc;
-        let g = lum * light_share(glossy.alpha, glossy.wo, normal, to_c, d2, omc);
-        let p_sel = mixed_selection(w, g, sum, glossy.share_sum);
+        let p_sel = mixed_selection(gw.w, gw.g, sum, glossy.share_sum);
         match window_of(self.windows(), i) {
             Some(win) if win.covers(point) => p_sel * win.pdf(point, dir),
-            _ => p_sel / (math::TWO_PI * omc),
+            _ => p_sel / (math::TWO_PI * gw.omc),
         }
     }
 
