@@ -18,7 +18,15 @@
 //!   that direction.
 //!
 //! Mirror and glass vertices are Dirac deltas: emitters seen through them get
-//! full weight. The first non-delta vertex of a path (wherever mirrors and
+//! full weight. A glass vertex chooses reflection or refraction with
+//! probability equal to the Fresnel reflectance, except the first glass
+//! vertex of a path before any non-delta vertex (the glass the camera sees,
+//! through any mirrors): there the path splits and traces both, weighted by
+//! the reflectance and the transmittance, the reflection after the
+//! refraction's branch ends. That removes the variance of the choice where
+//! the two continuations see very different radiance (a small bright light
+//! reflected in a glass ball against the scene seen through it), for at
+//! most one extra branch per path. The first non-delta vertex of a path (wherever mirrors and
 //! glass put it) takes its bounce, its light choice and its light sample
 //! from the pixel's stratified pairs; later vertices use independent
 //! numbers. Paths end by Russian roulette on the throughput after
@@ -776,254 +784,356 @@ fn trace<const MANY: bool, const TREE: bool>(
     // four instructions each on a 32-bit core)
     let (mut bounces, mut shadows) = (0u32, 0u32);
     let mut depth = 0u32;
+    // whether the path may no longer split at a glass vertex: it has split,
+    // or met a non-delta vertex
+    #[cfg(feature = "glass")]
+    let mut no_split = false;
+    // the other branch of a path split at its first glass vertex (see
+    // `split_at_glass`), traced after this one ends
+    #[cfg(feature = "glass")]
+    let mut pending: Option<Branch> = None;
+    // one pass per branch: without glass, exactly one
+    #[cfg_attr(not(feature = "glass"), allow(clippy::never_loop))]
     loop {
-        // one inlined query for every ray, with the camera ray's sphere
-        // list when culling (a camera ray leaves no object)
-        let spheres = if depth == 0 && opts.skip.view_culling {
-            scene.tested_primary
-        } else {
-            scene.tested
-        };
-        let found = if opts.skip.slabs {
-            scene.closest_hit_in::<TREE>(&ray, from, spheres)
-        } else {
-            scene.closest_hit_any_among(&ray, from, spheres)
-        };
-        let Some(hit) = found else {
-            if scene.closed && opts.skip.closed {
-                // nothing can escape a closed scene: a numerical leak
-                stats.leaks += 1;
+        loop {
+            // one inlined query for every ray, with the camera ray's sphere
+            // list when culling (a camera ray leaves no object)
+            let spheres = if depth == 0 && opts.skip.view_culling {
+                scene.tested_primary
             } else {
-                l += thr * scene.background;
-            }
-            break;
-        };
-        // a non-delta vertex, compiled once per lobe type (static
-        // dispatch): next-event estimation and BSDF sampling by MIS
-        macro_rules! non_delta {
-            ($lobe:expr) => {{
-                let lobe = $lobe;
-                // two-sided: shade with the normal facing the incoming ray
-                let n = if ray.dir.dot(hit.normal) < 0.0 {
-                    hit.normal
+                scene.tested
+            };
+            let found = if opts.skip.slabs {
+                scene.closest_hit_in::<TREE>(&ray, from, spheres)
+            } else {
+                scene.closest_hit_any_among(&ray, from, spheres)
+            };
+            let Some(hit) = found else {
+                if scene.closed && opts.skip.closed {
+                    // nothing can escape a closed scene: a numerical leak
+                    stats.leaks += 1;
                 } else {
-                    -hit.normal
-                };
-                let wo = -ray.dir;
-                let mut weight_sum = 0.0;
-                let mut light_omc = 0.0;
-                let horizon = ctx.horizon_at(hit.object);
-                if opts.strategy != Strategy::BsdfOnly && !ctx.plan.lights.is_empty() {
-                    // drawn before the light is chosen, so that skipping a
-                    // light below the horizon never shifts the random numbers
-                    let u = if last == EYE {
-                        stream.stratified_2d(2)
-                    } else {
-                        stream.next_2d()
-                    };
-                    let f = thr * lobe.tint();
-                    if MANY {
-                        let alpha = lobe.selective_alpha();
-                        let (choice, sum) = if cfg!(feature = "metal") && alpha > 0.0 {
-                            let (c, sum) = ctx.choose_light_glossy(
-                                hit.point,
-                                n,
-                                horizon,
-                                last == EYE,
-                                stream,
-                                alpha,
-                                wo,
-                                &mut glossy,
-                            );
-                            // negative: the glossy choice's pdf applies
-                            (c, -sum)
-                        } else {
-                            ctx.choose_light(hit.point, n, horizon, last == EYE, stream)
-                        };
-                        weight_sum = sum;
-                        if let Some(c) = choice {
-                            let through = match window_of(ctx.windows(), c.sphere) {
-                                Some(w) => direct_window::<TREE, _>(
-                                    scene,
-                                    &hit,
-                                    n,
-                                    f,
-                                    &lobe,
-                                    wo,
-                                    &c,
-                                    u,
-                                    opts,
-                                    &mut shadows,
-                                    w,
-                                ),
-                                None => None,
-                            };
-                            l += match through {
-                                Some(e) => e,
-                                None => direct::<TREE, _>(
-                                    scene,
-                                    &hit,
-                                    n,
-                                    f,
-                                    &lobe,
-                                    wo,
-                                    &c,
-                                    u,
-                                    opts,
-                                    &mut shadows,
-                                ),
-                            };
-                        }
-                    } else if let Some(one) = &ctx.plan.one {
-                        weight_sum = 1.0;
-                        let to_c = one.center - hit.point;
-                        let d2 = to_c.length_squared();
-                        if d2 > one.radius2 && !(horizon && n.dot(to_c) < -one.radius) {
-                            let c = LightChoice {
-                                sphere: one.sphere,
-                                p_sel: 1.0,
-                                to_c,
-                                d2,
-                            };
-                            let through = match Ctx::window_of_one(one) {
-                                Some(w) => nee_window::<MANY, TREE, _>(
-                                    scene,
-                                    &hit,
-                                    n,
-                                    f,
-                                    &lobe,
-                                    wo,
-                                    &c,
-                                    one.le,
-                                    u,
-                                    opts,
-                                    &mut shadows,
-                                    w,
-                                ),
-                                None => None,
-                            };
-                            if let Some(e) = through {
-                                // negative: the window's pdf applies
-                                light_omc = -1.0;
-                                l += e;
-                            } else {
-                                l += nee::<MANY, TREE, _>(
-                                    scene,
-                                    &hit,
-                                    n,
-                                    f,
-                                    &lobe,
-                                    wo,
-                                    &c,
-                                    one.radius2,
-                                    one.le,
-                                    u,
-                                    opts,
-                                    &mut shadows,
-                                    &mut light_omc,
-                                );
-                            }
-                        }
+                    l += thr * scene.background;
+                }
+                break;
+            };
+            // a non-delta vertex, compiled once per lobe type (static
+            // dispatch): next-event estimation and BSDF sampling by MIS
+            macro_rules! non_delta {
+                ($lobe:expr) => {{
+                    let lobe = $lobe;
+                    #[cfg(feature = "glass")]
+                    {
+                        no_split = true;
                     }
-                }
-                let u = if last == EYE {
-                    stream.stratified_2d(1)
-                } else {
-                    stream.next_2d()
-                };
-                let Some(bs) = lobe.sample(wo, n, u, opts.fast_math) else {
-                    break;
-                };
-                let vertex = PrevVertex {
-                    point: hit.point,
-                    normal: n,
-                    bsdf_pdf: bs.pi_pdf * math::INV_PI,
-                    weight_sum,
-                    light_omc,
-                    horizon,
-                };
-                #[cfg(feature = "metal")]
-                {
-                    prev = Some(vertex);
-                }
-                #[cfg(not(feature = "metal"))]
-                {
-                    prev = vertex;
-                }
-                // f · cos / pdf (the Lambertian's: its albedo, exactly)
-                thr *= bs.weight;
-                last = NON_DELTA;
-                ray = hit.spawn_on(n, bs.dir);
-            }};
-        }
-        let Some(mat) = scene.materials.get(hit.material as usize) else {
-            break;
-        };
-        match mat.scatter(&hit, ray.dir, stream) {
-            Scatter::Emit(le) => {
-                // emits on the outward side only, reflects nothing
-                if ray.dir.dot(hit.normal) < 0.0 {
-                    let w = if last != NON_DELTA {
-                        1.0
+                    // two-sided: shade with the normal facing the incoming ray
+                    let n = if ray.dir.dot(hit.normal) < 0.0 {
+                        hit.normal
                     } else {
-                        match opts.strategy {
-                            Strategy::BsdfOnly => 1.0,
-                            Strategy::LightOnly => 0.0,
-                            Strategy::Mis => {
-                                let weigh = |prev: &PrevVertex| {
-                                    let pl = hit.object.as_sphere().map_or(0.0, |i| {
-                                        ctx.light_pdf::<MANY>(prev, &glossy, i, ray.dir)
-                                    });
-                                    power_heuristic(prev.bsdf_pdf, pl)
+                        -hit.normal
+                    };
+                    let wo = -ray.dir;
+                    let mut weight_sum = 0.0;
+                    let mut light_omc = 0.0;
+                    let horizon = ctx.horizon_at(hit.object);
+                    if opts.strategy != Strategy::BsdfOnly && !ctx.plan.lights.is_empty() {
+                        // drawn before the light is chosen, so that skipping a
+                        // light below the horizon never shifts the random numbers
+                        let u = if last == EYE {
+                            stream.stratified_2d(2)
+                        } else {
+                            stream.next_2d()
+                        };
+                        let f = thr * lobe.tint();
+                        if MANY {
+                            let alpha = lobe.selective_alpha();
+                            let (choice, sum) = if cfg!(feature = "metal") && alpha > 0.0 {
+                                let (c, sum) = ctx.choose_light_glossy(
+                                    hit.point,
+                                    n,
+                                    horizon,
+                                    last == EYE,
+                                    stream,
+                                    alpha,
+                                    wo,
+                                    &mut glossy,
+                                );
+                                // negative: the glossy choice's pdf applies
+                                (c, -sum)
+                            } else {
+                                ctx.choose_light(hit.point, n, horizon, last == EYE, stream)
+                            };
+                            weight_sum = sum;
+                            if let Some(c) = choice {
+                                let through = match window_of(ctx.windows(), c.sphere) {
+                                    Some(w) => direct_window::<TREE, _>(
+                                        scene,
+                                        &hit,
+                                        n,
+                                        f,
+                                        &lobe,
+                                        wo,
+                                        &c,
+                                        u,
+                                        opts,
+                                        &mut shadows,
+                                        w,
+                                    ),
+                                    None => None,
                                 };
-                                match &prev {
-                                    #[cfg(feature = "metal")]
-                                    Some(prev) => weigh(prev),
-                                    // not reached: `last` is not NON_DELTA
-                                    // before the first non-delta vertex
-                                    #[cfg(feature = "metal")]
-                                    None => 1.0,
-                                    #[cfg(not(feature = "metal"))]
-                                    prev => weigh(prev),
+                                l += match through {
+                                    Some(e) => e,
+                                    None => direct::<TREE, _>(
+                                        scene,
+                                        &hit,
+                                        n,
+                                        f,
+                                        &lobe,
+                                        wo,
+                                        &c,
+                                        u,
+                                        opts,
+                                        &mut shadows,
+                                    ),
+                                };
+                            }
+                        } else if let Some(one) = &ctx.plan.one {
+                            weight_sum = 1.0;
+                            let to_c = one.center - hit.point;
+                            let d2 = to_c.length_squared();
+                            if d2 > one.radius2 && !(horizon && n.dot(to_c) < -one.radius) {
+                                let c = LightChoice {
+                                    sphere: one.sphere,
+                                    p_sel: 1.0,
+                                    to_c,
+                                    d2,
+                                };
+                                let through = match Ctx::window_of_one(one) {
+                                    Some(w) => nee_window::<MANY, TREE, _>(
+                                        scene,
+                                        &hit,
+                                        n,
+                                        f,
+                                        &lobe,
+                                        wo,
+                                        &c,
+                                        one.le,
+                                        u,
+                                        opts,
+                                        &mut shadows,
+                                        w,
+                                    ),
+                                    None => None,
+                                };
+                                if let Some(e) = through {
+                                    // negative: the window's pdf applies
+                                    light_omc = -1.0;
+                                    l += e;
+                                } else {
+                                    l += nee::<MANY, TREE, _>(
+                                        scene,
+                                        &hit,
+                                        n,
+                                        f,
+                                        &lobe,
+                                        wo,
+                                        &c,
+                                        one.radius2,
+                                        one.le,
+                                        u,
+                                        opts,
+                                        &mut shadows,
+                                        &mut light_omc,
+                                    );
                                 }
                             }
                         }
+                    }
+                    let u = if last == EYE {
+                        stream.stratified_2d(1)
+                    } else {
+                        stream.next_2d()
                     };
-                    l += thr * le * w;
-                }
+                    let Some(bs) = lobe.sample(wo, n, u, opts.fast_math) else {
+                        break;
+                    };
+                    let vertex = PrevVertex {
+                        point: hit.point,
+                        normal: n,
+                        bsdf_pdf: bs.pi_pdf * math::INV_PI,
+                        weight_sum,
+                        light_omc,
+                        horizon,
+                    };
+                    #[cfg(feature = "metal")]
+                    {
+                        prev = Some(vertex);
+                    }
+                    #[cfg(not(feature = "metal"))]
+                    {
+                        prev = vertex;
+                    }
+                    // f · cos / pdf (the Lambertian's: its albedo, exactly)
+                    thr *= bs.weight;
+                    last = NON_DELTA;
+                    ray = hit.spawn_on(n, bs.dir);
+                }};
+            }
+            let Some(mat) = scene.materials.get(hit.material as usize) else {
                 break;
-            }
-            Scatter::Bsdf(Bsdf::Lambert(albedo)) => non_delta!(Lambert(albedo)),
-            #[cfg(feature = "metal")]
-            Scatter::Bsdf(Bsdf::Ggx(m)) => non_delta!(m),
-            Scatter::Delta(ds) => {
-                thr *= ds.weight;
-                rr_scale /= ds.scale;
-                last = last.max(DELTA);
-                ray = hit.spawn(ds.dir);
-            }
-            Scatter::Absorb => break,
-        }
-        depth += 1;
-        if depth >= opts.rr_start {
-            let p = thr.max_component() * rr_scale * opts.rr_gain;
-            if p < 1.0 {
-                if !(stream.next_f32() < p) {
+            };
+            match mat.scatter(&hit, ray.dir, stream) {
+                Scatter::Emit(le) => {
+                    // emits on the outward side only, reflects nothing
+                    if ray.dir.dot(hit.normal) < 0.0 {
+                        let w = if last != NON_DELTA {
+                            1.0
+                        } else {
+                            match opts.strategy {
+                                Strategy::BsdfOnly => 1.0,
+                                Strategy::LightOnly => 0.0,
+                                Strategy::Mis => {
+                                    let weigh = |prev: &PrevVertex| {
+                                        let pl = hit.object.as_sphere().map_or(0.0, |i| {
+                                            ctx.light_pdf::<MANY>(prev, &glossy, i, ray.dir)
+                                        });
+                                        power_heuristic(prev.bsdf_pdf, pl)
+                                    };
+                                    match &prev {
+                                        #[cfg(feature = "metal")]
+                                        Some(prev) => weigh(prev),
+                                        // not reached: `last` is not NON_DELTA
+                                        // before the first non-delta vertex
+                                        #[cfg(feature = "metal")]
+                                        None => 1.0,
+                                        #[cfg(not(feature = "metal"))]
+                                        prev => weigh(prev),
+                                    }
+                                }
+                            }
+                        };
+                        l += thr * le * w;
+                    }
                     break;
                 }
-                thr *= 1.0 / p;
+                Scatter::Bsdf(Bsdf::Lambert(albedo)) => non_delta!(Lambert(albedo)),
+                #[cfg(feature = "metal")]
+                Scatter::Bsdf(Bsdf::Ggx(m)) => non_delta!(m),
+                Scatter::Delta(ds) => {
+                    // the first glass vertex seen from the camera (through
+                    // any mirrors and glass, before any diffuse or glossy
+                    // vertex) continues along both its reflection and its
+                    // refraction (the choice just drawn is not used); every
+                    // other glass vertex along the one chosen by the Fresnel
+                    // reflectance
+                    #[cfg(feature = "glass")]
+                    let ds = match split_at_glass(mat, &hit, &ray, !no_split) {
+                        Some((t, b)) => {
+                            no_split = true;
+                            pending = Some(Branch {
+                                thr: thr * b.thr,
+                                rr_scale,
+                                depth: depth + 1,
+                                ..b
+                            });
+                            t
+                        }
+                        None => ds,
+                    };
+                    thr *= ds.weight;
+                    rr_scale /= ds.scale;
+                    last = last.max(DELTA);
+                    ray = hit.spawn(ds.dir);
+                }
+                Scatter::Absorb => break,
             }
+            depth += 1;
+            if depth >= opts.rr_start {
+                let p = thr.max_component() * rr_scale * opts.rr_gain;
+                if p < 1.0 {
+                    if !(stream.next_f32() < p) {
+                        break;
+                    }
+                    thr *= 1.0 / p;
+                }
+            }
+            if depth >= opts.max_depth {
+                break;
+            }
+            from = hit.object;
+            bounces += 1;
         }
-        if depth >= opts.max_depth {
-            break;
+        // the path's other branch, if it split at a glass vertex
+        #[cfg(feature = "glass")]
+        if let Some(b) = pending.take() {
+            ray = b.ray;
+            thr = b.thr;
+            rr_scale = b.rr_scale;
+            depth = b.depth;
+            from = b.from;
+            last = EYE;
+            bounces += 1;
+            continue;
         }
-        from = hit.object;
-        bounces += 1;
+        break;
     }
     stats.paths += 1;
     stats.bounce_rays += u64::from(bounces);
     stats.shadow_rays += u64::from(shadows);
     l
+}
+
+/// The branch of a path that waits while the other is traced: its ray,
+/// throughput, roulette scale, depth and the object it leaves.
+#[cfg(feature = "glass")]
+struct Branch {
+    ray: Ray,
+    thr: Color,
+    rr_scale: f32,
+    depth: u32,
+    from: ObjectId,
+}
+
+/// Splitting at a glass vertex (`split`: the path may split here): the
+/// refraction, weighted by `1 − R`, for the path to continue with, and the
+/// reflection, weighted by `R` (in `thr`, a factor of the path's
+/// throughput), for it to trace after. `None` where the path may not split,
+/// the material is not glass, or one continuation carries everything.
+///
+/// Choosing one of the two by the reflectance is what a glass vertex does
+/// elsewhere; it adds variance where the two see very different radiance
+/// (the sun reflected in a glass ball against the scene seen through it).
+/// Tracing both once per path removes that variance at the vertex the
+/// camera sees, for at most one extra branch per path.
+#[cfg(feature = "glass")]
+#[inline(always)]
+fn split_at_glass(
+    mat: &Material,
+    hit: &Hit,
+    ray: &Ray,
+    split: bool,
+) -> Option<(crate::material::DeltaSample, Branch)> {
+    if !split {
+        return None;
+    }
+    let Material::Glass(ior) = *mat else {
+        return None;
+    };
+    let (r_dir, r, t_dir, scale) = crate::material::split_dielectric(ray.dir, hit.normal, ior)?;
+    Some((
+        crate::material::DeltaSample {
+            dir: t_dir,
+            weight: Color::splat((1.0 - r) * scale),
+            scale,
+        },
+        Branch {
+            ray: hit.spawn(r_dir),
+            thr: Color::splat(r),
+            rr_scale: 1.0,
+            depth: 0,
+            from: hit.object,
+        },
+    ))
 }
 
 /// Next-event estimation toward the light that [`Ctx::choose_light`] chose

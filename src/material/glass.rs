@@ -45,6 +45,20 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
     (0.5 * (rs * rs + rp * rp), cos_t)
 }
 
+/// For the unit direction `d` meeting a surface of outward normal `n` and
+/// index `ior`: the normal facing `d`'s origin, the cosine of incidence and
+/// the ratio `eta_i / eta_t` (feature `glass`).
+#[cfg(feature = "glass")]
+#[inline(always)]
+fn facing(d: Vec3, n: Vec3, ior: f32) -> (Vec3, f32, f32) {
+    let cos_dn = d.dot(n);
+    if cos_dn < 0.0 {
+        (n, -cos_dn, 1.0 / ior)
+    } else {
+        (-n, cos_dn, ior)
+    }
+}
+
 /// Samples a smooth dielectric of index `ior` for the incoming unit direction
 /// `d` and the unit outward normal `n`, choosing reflection with probability
 /// equal to the Fresnel reflectance (from `u` in [0,1)).
@@ -57,12 +71,7 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
 #[cfg(feature = "glass")]
 #[inline]
 pub fn sample_dielectric(d: Vec3, n: Vec3, ior: f32, u: f32) -> (Vec3, f32) {
-    let cos_dn = d.dot(n);
-    let (nf, cos_i, eta) = if cos_dn < 0.0 {
-        (n, -cos_dn, 1.0 / ior)
-    } else {
-        (-n, cos_dn, ior)
-    };
+    let (nf, cos_i, eta) = facing(d, n, ior);
     let (r, cos_t) = fresnel_dielectric(cos_i, eta);
     if u < r {
         (reflect(d, nf), 1.0)
@@ -88,6 +97,26 @@ pub fn sample_dielectric(d: Vec3, n: Vec3, ior: f32, u: f32) -> (Vec3, f32) {
     }
 }
 
+/// Both continuations of a ray meeting a smooth dielectric: the reflection
+/// with its Fresnel weight `R`, and the refraction with its weight `1 − R`
+/// and its radiance scaling `(eta_i / eta_t)²` (the same direction and
+/// scaling as [`sample_dielectric`] refracts with). `None` where one of
+/// them carries everything (total internal reflection, or `R` = 0), so that
+/// there is nothing to split. Returns `(reflected, R, refracted, scale)`.
+/// (Feature `glass`.)
+#[cfg(feature = "glass")]
+#[inline]
+pub fn split_dielectric(d: Vec3, n: Vec3, ior: f32) -> Option<(Vec3, f32, Vec3, f32)> {
+    let (nf, cos_i, eta) = facing(d, n, ior);
+    let (r, _) = fresnel_dielectric(cos_i, eta);
+    if !(r > 0.0 && r < 1.0) {
+        return None;
+    }
+    // u = 1 ≥ R: sample_dielectric's refraction, bit for bit
+    let (t, scale) = sample_dielectric(d, n, ior, 1.0);
+    Some((reflect(d, nf), r, t, scale))
+}
+
 #[cfg(all(test, feature = "glass"))]
 mod tests {
     use super::*;
@@ -103,6 +132,30 @@ mod tests {
         let (r_in, ct) = fresnel_dielectric(0.8, 1.0 / 1.5);
         let (r_out, _) = fresnel_dielectric(ct, 1.5);
         assert!(math::abs(r_in - r_out) < 1e-6);
+    }
+
+    /// The split's two continuations are sample_dielectric's two choices,
+    /// with weights that sum to the interface's energy (R + (1 − R) = 1 before
+    /// the radiance scaling).
+    #[test]
+    fn split_gives_both_choices_of_the_sampler() {
+        let n = Vec3::new(0.0, 1.0, 0.0);
+        for d in [
+            Vec3::new(0.6, -0.8, 0.0),
+            Vec3::new(0.0, -1.0, 0.0),
+            Vec3::new(0.3, 0.9539392, 0.0),
+        ] {
+            let (r_dir, r, t_dir, scale) = split_dielectric(d, n, 1.5).expect("both continue");
+            assert_eq!((r_dir, 1.0), sample_dielectric(d, n, 1.5, 0.0));
+            assert_eq!((t_dir, scale), sample_dielectric(d, n, 1.5, 0.999_999));
+            let cos_i = math::abs(d.dot(n));
+            let eta = if d.dot(n) < 0.0 { 1.0 / 1.5 } else { 1.5 };
+            assert_eq!(r, fresnel_dielectric(cos_i, eta).0);
+        }
+        // from inside beyond the critical angle: only reflection
+        assert!(split_dielectric(Vec3::new(0.8, 0.6, 0.0), n, 1.5).is_none());
+        // an index of 1 reflects nothing
+        assert!(split_dielectric(Vec3::new(0.6, -0.8, 0.0), n, 1.0).is_none());
     }
 
     #[test]

@@ -24,7 +24,7 @@ pub mod mirror;
 pub use checker::Checker;
 pub use diffuse::{Lambert, sample_cosine};
 #[cfg(feature = "glass")]
-pub use glass::{fresnel_dielectric, sample_dielectric};
+pub use glass::{fresnel_dielectric, sample_dielectric, split_dielectric};
 pub use metal::Metal;
 #[cfg(any(feature = "mirror", feature = "glass", feature = "metal"))]
 pub use mirror::reflect;
