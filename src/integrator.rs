@@ -178,7 +178,8 @@ pub struct Stats {
     pub bounce_rays: u64,
     /// Shadow rays (occlusion tests toward a light).
     pub shadow_rays: u64,
-    /// Samples whose radiance was NaN or infinite (counted, then dropped).
+    /// Samples whose radiance was NaN, infinite or above
+    /// [`crate::render::SAMPLE_MAX`] (counted, then dropped).
     pub nonfinite: u64,
     /// Rays that escaped a closed scene: numerical leaks (should be 0).
     pub leaks: u64,
@@ -756,7 +757,9 @@ fn trace<const MANY: bool, const TREE: bool>(
     const EYE: u8 = 2;
     let mut last = if opts.stratified { EYE } else { DELTA };
     // undoes the (eta_i/eta_t)^2 radiance scaling for Russian roulette, so
-    // that paths inside glass are not killed for a factor that cancels on exit
+    // that paths inside glass are not killed for a factor that cancels on
+    // exit (and a split's weight, R or 1 − R, so that each branch is
+    // killed as the path that chose it would be)
     let mut rr_scale = 1.0f32;
     // The last non-delta vertex, read only after one has set it. With metal
     // an Option, empty until then: zeroing the larger record at every
@@ -1032,7 +1035,7 @@ fn trace<const MANY: bool, const TREE: bool>(
                             no_split = true;
                             pending = Some(Branch {
                                 thr: thr * b.thr,
-                                rr_scale,
+                                rr_scale: rr_scale * b.rr_scale,
                                 depth: depth + 1,
                                 ..b
                             });
@@ -1097,7 +1100,9 @@ struct Branch {
 /// Splitting at a glass vertex (`split`: the path may split here): the
 /// refraction, weighted by `1 − R`, for the path to continue with, and the
 /// reflection, weighted by `R` (in `thr`, a factor of the path's
-/// throughput), for it to trace after. `None` where the path may not split,
+/// throughput; `rr_scale`, a factor of its roulette scale, undoes it), for
+/// it to trace after. Russian roulette leaves both weights out, so each
+/// branch survives as the unsplit path would have. `None` where the path may not split,
 /// the material is not glass, or one continuation carries everything.
 ///
 /// Choosing one of the two by the reflectance is what a glass vertex does
@@ -1124,12 +1129,14 @@ fn split_at_glass(
         crate::material::DeltaSample {
             dir: t_dir,
             weight: Color::splat((1.0 - r) * scale),
-            scale,
+            // roulette leaves the split's weight out with the scaling, so
+            // that it treats each branch as the path that chose it
+            scale: (1.0 - r) * scale,
         },
         Branch {
             ray: hit.spawn(r_dir),
             thr: Color::splat(r),
-            rr_scale: 1.0,
+            rr_scale: 1.0 / r,
             depth: 0,
             from: hit.object,
         },

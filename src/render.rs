@@ -16,6 +16,12 @@ use crate::scene::{Scene, SceneView};
 /// changes no other draw of a path.
 pub const LENS_PAIR: u32 = 3;
 
+/// The largest sample component a render keeps: `f32::MAX / 2^20`, so that
+/// the sum of a pixel's samples (at most [`crate::budget::MAX_SPP`] =
+/// 2^20) cannot overflow. Larger (and non-finite) samples are counted in
+/// [`Stats::nonfinite`](crate::integrator::Stats::nonfinite) and dropped.
+pub const SAMPLE_MAX: f32 = f32::MAX / 1_048_576.0;
+
 /// Renders pixels of one scene at one image size.
 ///
 /// ```
@@ -116,8 +122,10 @@ impl<'a> Renderer<'a> {
         PixelSampler::new(pixel_key_of(self.seed_key, x, y))
     }
 
-    /// Sample number `index` of pixel (x, y): one path. A non-finite result
-    /// is counted in `stats.nonfinite` and returned as zero.
+    /// Sample number `index` of pixel (x, y): one path. A result that is not
+    /// finite, or beyond [`SAMPLE_MAX`] (where a pixel's sum of samples
+    /// could overflow), is counted in `stats.nonfinite` and returned as
+    /// zero.
     #[inline]
     pub fn sample(&self, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
         self.sample_in(&self.pixel_sampler(x, y), x, y, index, stats)
@@ -144,7 +152,10 @@ impl<'a> Renderer<'a> {
             &self.options,
             stats,
         );
-        if c.is_finite() {
+        // at most f32::MAX / 2^20 (and not NaN): a pixel's sum of up to
+        // MAX_SPP = 2^20 samples then stays finite
+        let kept = |v: f32| crate::math::abs(v) <= SAMPLE_MAX;
+        if kept(c.x) && kept(c.y) && kept(c.z) {
             c
         } else {
             stats.nonfinite += 1;

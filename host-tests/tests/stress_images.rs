@@ -161,6 +161,34 @@ fn smallpt_converges_to_the_double_precision_reference() {
 /// unchanged). Values are computed in f64 and printed with 9 significant
 /// digits, so the parser gets the nearest f32 of the exact transformed value.
 fn transform(text: &str, s: f64, offset: [f64; 3]) -> String {
+    // a checker's cells are fixed in world coordinates: its SIZE scales, and
+    // an offset moves the pattern onto itself only by whole pairs of cells,
+    // so the offset is rounded to a multiple of twice the largest SIZE
+    // (which every other SIZE of the shipped scenes divides)
+    let sizes: Vec<f64> = text
+        .lines()
+        .filter_map(|l| {
+            let t: Vec<&str> = l.split('#').next()?.split_whitespace().collect();
+            (t.first() == Some(&"material") && t.get(2) == Some(&"checker"))
+                .then(|| t.get(9)?.parse().ok())
+                .flatten()
+        })
+        .collect();
+    let offset = match sizes
+        .iter()
+        .cloned()
+        .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))))
+    {
+        Some(big) => {
+            let period = 2.0 * big * s;
+            for v in &sizes {
+                let k = 2.0 * big / v;
+                assert!((k - k.round()).abs() < 1e-9, "checker sizes {sizes:?}");
+            }
+            offset.map(|o| (o / period).round() * period)
+        }
+        None => offset,
+    };
     let mut out = String::new();
     for line in text.lines() {
         let code = line.split('#').next().unwrap();
@@ -175,6 +203,18 @@ fn transform(text: &str, s: f64, offset: [f64; 3]) -> String {
                 for i in 0..6 {
                     t[1 + i] = pos(1 + i, i % 3);
                 }
+                // a thin lens: its aperture radius and focus distance are
+                // lengths
+                for i in 11..t.len().min(13) {
+                    let v: f64 = toks[i].parse().unwrap();
+                    t[i] = format!("{:.8e}", v * s);
+                }
+                t.join(" ")
+            }
+            Some("material") if toks.get(2) == Some(&"checker") => {
+                let mut t: Vec<String> = toks.iter().map(|t| t.to_string()).collect();
+                let v: f64 = toks[9].parse().unwrap();
+                t[9] = format!("{:.8e}", v * s);
                 t.join(" ")
             }
             Some("sphere") => {
