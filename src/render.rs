@@ -20,7 +20,7 @@ pub const LENS_PAIR: u32 = 3;
 /// the sum of a pixel's samples (at most [`crate::budget::MAX_SPP`] =
 /// 2^20) cannot overflow. Larger (and non-finite) samples are counted in
 /// [`Stats::nonfinite`](crate::integrator::Stats::nonfinite) and dropped.
-pub const SAMPLE_MAX: f32 = f32::MAX / 1_048_576.0;
+pub const SAMPLE_MAX: f32 = f32::MAX / crate::budget::MAX_SPP as f32;
 
 /// Renders pixels of one scene at one image size.
 ///
@@ -152,8 +152,7 @@ impl<'a> Renderer<'a> {
             &self.options,
             stats,
         );
-        // at most f32::MAX / 2^20 (and not NaN): a pixel's sum of up to
-        // MAX_SPP = 2^20 samples then stays finite
+        // |v| <= SAMPLE_MAX is false for NaN and infinities too
         let kept = |v: f32| crate::math::abs(v) <= SAMPLE_MAX;
         if kept(c.x) && kept(c.y) && kept(c.z) {
             c

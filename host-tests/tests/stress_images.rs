@@ -174,20 +174,16 @@ fn transform(text: &str, s: f64, offset: [f64; 3]) -> String {
                 .flatten()
         })
         .collect();
-    let offset = match sizes
-        .iter()
-        .cloned()
-        .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))))
-    {
-        Some(big) => {
-            let period = 2.0 * big * s;
-            for v in &sizes {
-                let k = 2.0 * big / v;
-                assert!((k - k.round()).abs() < 1e-9, "checker sizes {sizes:?}");
-            }
-            offset.map(|o| (o / period).round() * period)
-        }
-        None => offset,
+    let big = sizes.iter().cloned().fold(0.0, f64::max);
+    for v in &sizes {
+        let k = 2.0 * big / v;
+        assert!((k - k.round()).abs() < 1e-9, "checker sizes {sizes:?}");
+    }
+    let offset = if big > 0.0 {
+        let period = 2.0 * big * s;
+        offset.map(|o| (o / period).round() * period)
+    } else {
+        offset
     };
     let mut out = String::new();
     for line in text.lines() {
