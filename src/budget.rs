@@ -231,7 +231,7 @@ impl TileAccum {
             ) else {
                 return;
             };
-            let pixel = r.pixel_sampler(x, y);
+            let pixel = r.pixel(x, y);
             for _ in 0..k {
                 let c = r.sample_in(&pixel, x, y, *n, stats);
                 let l = c.luminance();

@@ -266,6 +266,37 @@ impl Camera {
         Ray::new(self.eye, d.normalize())
     }
 
+    /// The film position (in pixel units, as [`Camera::ray`] takes it) of
+    /// the pinhole ray through the point `p`, or `None` when `p` is not in
+    /// front of the eye.
+    #[cfg(feature = "highlight")]
+    pub fn film_of(&self, p: Vec3) -> Option<[f32; 2]> {
+        let q = p - self.eye;
+        let depth = q.dot(self.forward);
+        if !(depth > 0.0) {
+            return None;
+        }
+        // the film direction: forward component exactly 1 (see `ray`)
+        let off = q * (1.0 / depth) - self.corner;
+        Some([
+            off.dot(self.dx) / self.dx.length_squared(),
+            off.dot(self.dy) / self.dy.length_squared(),
+        ])
+    }
+
+    /// The derivatives of the unit pinhole ray direction through film
+    /// position (`fx`, `fy`) along the two film axes (per pixel).
+    #[cfg(feature = "highlight")]
+    pub fn dir_derivatives(&self, fx: f32, fy: f32) -> (Vec3, Vec3) {
+        let d = self.corner + self.dx * fx + self.dy * fy;
+        let inv = 1.0 / d.length();
+        let w = d * inv;
+        (
+            (self.dx - w * self.dx.dot(w)) * inv,
+            (self.dy - w * self.dy.dot(w)) * inv,
+        )
+    }
+
     /// The primary ray through film position (`fx`, `fy`) (as
     /// [`Camera::ray`]) from the lens position that `lens` in [0,1)² maps
     /// to, uniformly over the lens disk ([`crate::material::concentric_disk`]).

@@ -153,6 +153,11 @@ pub struct Options {
     pub max_depth: u32,
     /// Work skipped because the scene cannot need it.
     pub skip: Skip,
+    /// Sample the images of small lights in mirror spheres from the light's
+    /// side ([`crate::highlight`]; a pinhole camera, feature `highlight`),
+    /// not only by film position: the same expectation, less noise where
+    /// such an image is a fraction of a pixel.
+    pub highlights: bool,
 }
 
 impl Default for Options {
@@ -165,6 +170,7 @@ impl Default for Options {
             rr_gain: 1.5,
             max_depth: 256,
             skip: Skip::ALL,
+            highlights: true,
         }
     }
 }
@@ -174,7 +180,8 @@ impl Default for Options {
 pub struct Stats {
     /// Path samples (one camera ray each).
     pub paths: u64,
-    /// Rays traced for closest hits after the camera ray.
+    /// Rays traced for closest hits after the camera ray (and the rays of
+    /// [`crate::highlight`]'s samples, which have no path of their own).
     pub bounce_rays: u64,
     /// Shadow rays (occlusion tests toward a light).
     pub shadow_rays: u64,
@@ -368,6 +375,10 @@ impl<'a> PathPlan<'a> {
 struct Ctx<'v, 'a> {
     scene: &'v SceneView<'a>,
     plan: &'v PathPlan<'a>,
+    /// The (mirror, light) pairs whose emission right after the camera's
+    /// mirror [`crate::highlight`] estimates instead.
+    #[cfg(feature = "highlight")]
+    highlights: Option<&'v crate::highlight::Highlights>,
 }
 
 /// What next-event estimation needs of a scene's only light.
@@ -701,21 +712,37 @@ pub fn radiance(
     opts: &Options,
     stats: &mut Stats,
 ) -> Color {
-    radiance_planned(scene, &PathPlan::new(scene, opts), ray, stream, opts, stats)
+    radiance_planned(
+        scene,
+        &PathPlan::new(scene, opts),
+        #[cfg(feature = "highlight")]
+        None,
+        ray,
+        stream,
+        opts,
+        stats,
+    )
 }
 
 /// [`radiance`] with the decisions of `plan`, which must be
-/// `PathPlan::new(scene, opts)`.
+/// `PathPlan::new(scene, opts)`, leaving out the emission that a camera ray
+/// meets right after a mirror for the pairs of `highlights`.
 #[inline(always)]
 pub(crate) fn radiance_planned(
     scene: &SceneView<'_>,
     plan: &PathPlan<'_>,
+    #[cfg(feature = "highlight")] highlights: Option<&crate::highlight::Highlights>,
     ray: Ray,
     stream: &mut SampleStream<'_>,
     opts: &Options,
     stats: &mut Stats,
 ) -> Color {
-    let ctx = Ctx { scene, plan };
+    let ctx = Ctx {
+        scene,
+        plan,
+        #[cfg(feature = "highlight")]
+        highlights,
+    };
     // the queries are compiled with and without the tree, so that a scene
     // without one (a firmware for a small scene has no tree code at all)
     // tests nothing about it per ray. (Tested here on the view, not kept in
@@ -987,6 +1014,16 @@ fn trace<const MANY: bool, const TREE: bool>(
             };
             match mat.scatter(&hit, ray.dir, stream) {
                 Scatter::Emit(le) => {
+                    // a light seen in a mirror straight from the camera
+                    // (`from`: the camera ray's object) whose image the
+                    // highlight estimator samples: left to it
+                    #[cfg(feature = "highlight")]
+                    if depth == 1
+                        && let Some(h) = ctx.highlights
+                        && h.covers(from, hit.object)
+                    {
+                        break;
+                    }
                     // emits on the outward side only, reflects nothing
                     if ray.dir.dot(hit.normal) < 0.0 {
                         let w = if last != NON_DELTA {

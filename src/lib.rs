@@ -25,6 +25,8 @@
 //! [`geometry`] (vectors, rays, spheres, planes), [`camera`], [`material`],
 //! [`light`], [`sampler`], [`scene`], [`parse`], [`integrator`], [`film`],
 //! [`render`], [`budget`] (fixed budgets, progressive and adaptive),
+//! `highlight` (lights seen in mirror balls, sampled from the light's side;
+//! feature `highlight`),
 //! [`multicore`] (one budgeted render shared between cores; on targets with
 //! atomic read-modify-write).
 
@@ -46,6 +48,8 @@ pub mod budget;
 pub mod camera;
 pub mod film;
 pub mod geometry;
+#[cfg(feature = "highlight")]
+pub mod highlight;
 pub mod integrator;
 pub mod light;
 pub mod material;

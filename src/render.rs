@@ -9,6 +9,11 @@ use crate::integrator::{self, Options, PathPlan, Stats};
 use crate::sampler::{PixelSampler, SampleStream, pixel_key_of, seed_key};
 use crate::scene::bvh::BvhView;
 use crate::scene::{Scene, SceneView};
+#[cfg(feature = "highlight")]
+use crate::{
+    highlight::{self, Highlights, PixelHighlights},
+    sampler::{mix64, sobol_2d},
+};
 
 /// The stratified pair of a sample's stream that places a lens camera's
 /// ray on the lens: the first pair the integrator does not use (0 is the
@@ -50,6 +55,21 @@ pub struct Renderer<'a> {
     /// What every path decides the same way: `PathPlan::new(&scene,
     /// &options)`, made again whenever either changes.
     plan: PathPlan<'a>,
+    /// The (mirror, light) pairs whose images can be sampled from the
+    /// light's side (used when the options allow: [`Renderer::highlights_on`]).
+    #[cfg(feature = "highlight")]
+    highlights: Highlights,
+}
+
+/// What all samples of one pixel share: its sampler, and the highlight
+/// pairs that can touch it ([`Renderer::pixel`]).
+#[derive(Clone, Debug)]
+pub struct Pixel {
+    sampler: PixelSampler,
+    #[cfg(feature = "highlight")]
+    key: u64,
+    #[cfg(feature = "highlight")]
+    highlights: PixelHighlights,
 }
 
 impl<'a> Renderer<'a> {
@@ -72,6 +92,8 @@ impl<'a> Renderer<'a> {
             options,
             tree: view.bvh,
             plan: PathPlan::new(&view, &options),
+            #[cfg(feature = "highlight")]
+            highlights: Highlights::new(&view, &camera),
         })
     }
 
@@ -122,36 +144,82 @@ impl<'a> Renderer<'a> {
         PixelSampler::new(pixel_key_of(self.seed_key, x, y))
     }
 
+    /// What all samples of pixel (x, y) share ([`Renderer::sample_in`]).
+    #[inline(always)]
+    pub fn pixel(&self, x: u32, y: u32) -> Pixel {
+        let key = pixel_key_of(self.seed_key, x, y);
+        Pixel {
+            sampler: PixelSampler::new(key),
+            #[cfg(feature = "highlight")]
+            key,
+            #[cfg(feature = "highlight")]
+            highlights: self
+                .highlights_on()
+                .map_or(PixelHighlights::NONE, |h| h.at(x, y)),
+        }
+    }
+
+    /// The (mirror, light) pairs whose images can be sampled from the
+    /// light's side ([`crate::highlight`]), whatever the options.
+    #[cfg(feature = "highlight")]
+    pub fn highlights(&self) -> &Highlights {
+        &self.highlights
+    }
+
+    /// The pairs this render samples from the light's side: none when
+    /// [`Options::highlights`] is off, or when paths end before they could
+    /// meet a light after a mirror.
+    #[cfg(feature = "highlight")]
+    #[inline(always)]
+    fn highlights_on(&self) -> Option<&Highlights> {
+        (self.options.highlights && self.options.max_depth >= 2 && !self.highlights.is_empty())
+            .then_some(&self.highlights)
+    }
+
+    /// How many (mirror, light) pairs this render samples from the light's
+    /// side (0 in a build without the `highlight` feature).
+    pub fn highlight_pairs(&self) -> usize {
+        #[cfg(feature = "highlight")]
+        {
+            self.highlights_on().map_or(0, |h| h.as_slice().len())
+        }
+        #[cfg(not(feature = "highlight"))]
+        {
+            0
+        }
+    }
+
     /// Sample number `index` of pixel (x, y): one path. A result that is not
     /// finite, or beyond [`SAMPLE_MAX`] (where a pixel's sum of samples
     /// could overflow), is counted in `stats.nonfinite` and returned as
     /// zero.
     #[inline]
     pub fn sample(&self, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
-        self.sample_in(&self.pixel_sampler(x, y), x, y, index, stats)
+        self.sample_in(&self.pixel(x, y), x, y, index, stats)
     }
 
-    /// [`Renderer::sample`] with the pixel's sampler computed beforehand
-    /// ([`Renderer::pixel_sampler`]`(x, y)`; the same bits).
+    /// [`Renderer::sample`] with what the pixel's samples share computed
+    /// beforehand ([`Renderer::pixel`]`(x, y)`; the same bits).
     #[inline(always)]
-    pub fn sample_in(
-        &self,
-        pixel: &PixelSampler,
-        x: u32,
-        y: u32,
-        index: u32,
-        stats: &mut Stats,
-    ) -> Color {
-        let mut s = pixel.stream(index);
+    pub fn sample_in(&self, pixel: &Pixel, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
+        let mut s = pixel.sampler.stream(index);
         let ray = self.primary_ray(&mut s, x, y);
-        let c = integrator::radiance_planned(
+        #[allow(unused_mut)]
+        let mut c = integrator::radiance_planned(
             &self.scene,
             &self.plan,
+            #[cfg(feature = "highlight")]
+            self.highlights_on(),
             ray,
             &mut s,
             &self.options,
             stats,
         );
+        // the lights seen in mirrors that the path left out
+        #[cfg(feature = "highlight")]
+        if !pixel.highlights.is_empty() {
+            c += self.highlights_of(pixel, x, y, index, stats);
+        }
         // |v| <= SAMPLE_MAX is false for NaN and infinities too
         let kept = |v: f32| crate::math::abs(v) <= SAMPLE_MAX;
         if kept(c.x) && kept(c.y) && kept(c.z) {
@@ -160,6 +228,23 @@ impl<'a> Renderer<'a> {
             stats.nonfinite += 1;
             Color::ZERO
         }
+    }
+
+    /// The highlight estimates of sample `index` of pixel (x, y) (out of
+    /// line: most pixels have none).
+    #[cfg(feature = "highlight")]
+    #[inline(never)]
+    fn highlights_of(&self, pixel: &Pixel, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
+        let mut c = Color::ZERO;
+        pixel.highlights.each(&self.highlights, x, y, |k, p| {
+            // the pair's own scrambled Sobol points over the pixel's
+            // samples, also when the path's numbers are independent
+            let rnd = sobol_2d(index, pixel.key ^ mix64(k as u64 + 1));
+            if let Some(v) = highlight::estimate(&self.scene, &self.camera, p, x, y, rnd, stats) {
+                c += v;
+            }
+        });
+        c
     }
 
     /// The camera ray of sample `index` of pixel (x, y): the ray that
@@ -212,7 +297,7 @@ impl<'a> Renderer<'a> {
         for (i, acc) in sums.iter_mut().take(tile.len()).enumerate() {
             let i = i as u32;
             let (x, y) = (tile.x.saturating_add(i % w), tile.y.saturating_add(i / w));
-            let pixel = self.pixel_sampler(x, y);
+            let pixel = self.pixel(x, y);
             for k in first..first.saturating_add(count) {
                 *acc += self.sample_in(&pixel, x, y, k, stats);
             }

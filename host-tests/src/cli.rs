@@ -190,6 +190,11 @@ struct RenderArgs {
     /// analysis finds that it does not pay (to measure where it starts to).
     #[arg(long)]
     force_bvh: bool,
+    /// Diagnostics: find the images of lights in mirror spheres by film
+    /// sampling only, not also from the light's side (the same expectation,
+    /// more noise where such an image is a fraction of a pixel).
+    #[arg(long)]
+    no_highlights: bool,
     #[command(flatten)]
     frame: FrameArgs,
     /// Exposure multiplier applied before tone mapping (PNG, rgb565).
@@ -361,6 +366,7 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
         options: Options {
             skip: a.no_skip.unwrap_or(Skip::ALL),
             strategy: a.strategy,
+            highlights: !a.no_highlights,
             ..Options::default()
         },
         adaptive: AdaptiveOptions {
@@ -420,6 +426,8 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
             "leaks": s.leaks,
             "bvh_nodes": if job.options.skip.bvh { scene.bvh().len() } else { 0 },
             "bvh_depth": if job.options.skip.bvh { scene.bvh().depth() } else { 0 },
+            "highlight_pairs": micropt::Renderer::new(&scene, width, height)
+                .map_or(0, |r| r.options(job.options).highlight_pairs()),
             "threads": out.threads,
             "rays_per_second": s.rays() as f64 / out.seconds.max(1e-9),
         });

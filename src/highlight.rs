@@ -1,0 +1,591 @@
+//! Highlights: the images of lights in mirror spheres, sampled from the
+//! light's side (feature `highlight`).
+//!
+//! A camera ray that meets a mirror sphere and then a light carries the
+//! light's radiance times the mirror's tint. When the light is small and
+//! far, its image in a convex mirror is a small fraction of a pixel (a sun
+//! in a ball of a tenth of a unit, seen across a field, covers about 1 % of
+//! a pixel), which film sampling finds only by chance: it is most of the
+//! error of such a pixel, and it falls as 1/N at best.
+//!
+//! For a pinhole camera this module estimates that part of a pixel's
+//! integral another way. It samples the direction ω of the reflected ray
+//! uniformly in the cone, around the line from the mirror's centre to the
+//! light's, of every direction in which a ray from a point of the mirror can
+//! meet the light (half-angle `asin((r_light + r_mirror) / distance)`), and
+//! finds the point of the mirror whose reflection of the eye's ray leaves
+//! along ω (one root: see [`mirror_point`]). The film position of that point
+//! is a sample with density `p(ω) · |dω/dx|` (the Jacobian of the film to
+//! reflected-direction map, from the derivatives of the camera ray and of
+//! the sphere's normal); a sample inside the pixel whose camera ray meets
+//! the mirror first and whose reflected ray meets the light first adds
+//! `tint · L_e / (p(ω) |dω/dx|)`. The path tracer leaves out the emission
+//! that a camera path meets right after such a mirror (`covers`), so each
+//! part of the integral is estimated once: the two are unbiased together.
+//!
+//! A pair (mirror, light) gets this estimator when the light is at least as
+//! large as the mirror, so that a sampled direction meets the light with
+//! probability at least a quarter (`(r_l / (r_l + r_m))²`), and its cone is
+//! narrow (sine of the half-angle at most [`SIN_MAX`]): a large light's
+//! image is large, and film sampling finds it.
+
+use crate::camera::Camera;
+use crate::geometry::{Color, ObjectId, Sphere, Vec3};
+use crate::integrator::Stats;
+use crate::light;
+use crate::material::Material;
+use crate::material::mirror::reflect;
+use crate::math;
+use crate::scene::SceneView;
+
+/// Most (mirror, light) pairs a render estimates this way; further pairs
+/// are left to the path tracer.
+pub const CAPACITY: usize = 32;
+
+/// Largest sine of the half-angle of a pair's direction cone.
+pub const SIN_MAX: f32 = 0.25;
+
+/// Most pairs whose film rectangles hold one pixel that a pixel keeps in
+/// its own list; a pixel in more tests every pair per sample.
+pub const PIXEL_PAIRS: usize = 8;
+
+/// One (mirror sphere, light sphere) pair and the pixels the mirror's image
+/// can touch.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Highlight {
+    /// Scene index of the mirror sphere.
+    pub mirror: u16,
+    /// Scene index of the light sphere.
+    pub light: u16,
+    /// Pixels `[x0, y0, x1, y1]` (inclusive) that can hold the mirror's
+    /// image.
+    pub pixels: [u16; 4],
+}
+
+impl Highlight {
+    fn holds(&self, x: u32, y: u32) -> bool {
+        let [x0, y0, x1, y1] = self.pixels;
+        (u32::from(x0)..=u32::from(x1)).contains(&x) && (u32::from(y0)..=u32::from(y1)).contains(&y)
+    }
+}
+
+/// A render's pairs, ordered by their first row.
+#[derive(Clone, Copy, Debug)]
+pub struct Highlights {
+    list: [Highlight; CAPACITY],
+    len: usize,
+}
+
+impl Highlights {
+    /// No pairs.
+    pub const NONE: Self = Self {
+        list: [Highlight {
+            mirror: 0,
+            light: 0,
+            pixels: [0; 4],
+        }; CAPACITY],
+        len: 0,
+    };
+
+    /// The pairs of `scene` seen by `camera` (none for a lens camera).
+    #[inline(never)]
+    pub fn new(scene: &SceneView<'_>, camera: &Camera) -> Self {
+        let mut out = Self::NONE;
+        if camera.has_lens() {
+            return out;
+        }
+        let (w, h) = (camera.width(), camera.height());
+        for (mi, m) in scene.spheres.iter().enumerate() {
+            if !matches!(
+                scene.materials.get(m.material as usize),
+                Some(Material::Mirror(_))
+            ) {
+                continue;
+            }
+            for &li in scene.emitters {
+                let Some(l) = scene.spheres.get(li as usize) else {
+                    continue;
+                };
+                let d = (l.center - m.center).length();
+                let reach = l.radius + m.radius;
+                if !(l.radius >= m.radius && reach <= SIN_MAX * d) || out.len >= CAPACITY {
+                    continue;
+                }
+                // a pair whose image is not bounded that way, or lies
+                // outside the film, is left to film sampling
+                let Some(pixels) = image_rect(camera, m, l, d).and_then(|r| pixel_rect(r, w, h))
+                else {
+                    continue;
+                };
+                let hl = Highlight {
+                    mirror: mi as u16,
+                    light: li,
+                    pixels,
+                };
+                // insertion by first row (stable: scene order among equals;
+                // no slice method that can panic, for the firmware's
+                // panic-free link)
+                let mut at = out.len;
+                while at > 0
+                    && out
+                        .list
+                        .get(at - 1)
+                        .is_some_and(|p| p.pixels[1] > pixels[1])
+                {
+                    if let Some([a, b]) = out.list.get_mut(at - 1..=at) {
+                        *b = *a;
+                    }
+                    at -= 1;
+                }
+                if let Some(slot) = out.list.get_mut(at) {
+                    *slot = hl;
+                }
+                out.len += 1;
+            }
+        }
+        out
+    }
+
+    /// The pairs.
+    pub fn as_slice(&self) -> &[Highlight] {
+        self.list.get(..self.len).unwrap_or(&[])
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Whether the emission of `light` seen by a camera ray right after the
+    /// mirror `mirror` is estimated here (the path tracer then leaves it
+    /// out).
+    #[inline]
+    pub fn covers(&self, mirror: ObjectId, light: ObjectId) -> bool {
+        let (Some(m), Some(l)) = (mirror.as_sphere(), light.as_sphere()) else {
+            return false;
+        };
+        self.as_slice()
+            .iter()
+            .any(|p| usize::from(p.mirror) == m && usize::from(p.light) == l)
+    }
+
+    /// The pairs whose rectangles hold pixel (x, y).
+    #[inline(never)]
+    pub fn at(&self, x: u32, y: u32) -> PixelHighlights {
+        let mut out = PixelHighlights {
+            idx: [0; PIXEL_PAIRS],
+            len: 0,
+            all: false,
+        };
+        for (i, p) in self.as_slice().iter().enumerate() {
+            if u32::from(p.pixels[1]) > y {
+                break;
+            }
+            if p.holds(x, y) {
+                if let Some(slot) = out.idx.get_mut(usize::from(out.len)) {
+                    *slot = i as u8;
+                    out.len += 1;
+                } else {
+                    out.all = true;
+                }
+            }
+        }
+        out
+    }
+}
+
+/// The pairs that can touch one pixel ([`Highlights::at`]).
+#[derive(Clone, Copy, Debug)]
+pub struct PixelHighlights {
+    idx: [u8; PIXEL_PAIRS],
+    len: u8,
+    /// More than [`PIXEL_PAIRS`]: test every pair.
+    all: bool,
+}
+
+impl PixelHighlights {
+    /// None.
+    pub const NONE: Self = Self {
+        idx: [0; PIXEL_PAIRS],
+        len: 0,
+        all: false,
+    };
+
+    /// Whether no pair touches the pixel.
+    #[inline(always)]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Calls `f` with the index and the pair of every pair that can touch
+    /// pixel (x, y) of `all`.
+    #[inline]
+    pub fn each(&self, all: &Highlights, x: u32, y: u32, mut f: impl FnMut(usize, &Highlight)) {
+        if self.all {
+            for (i, p) in all.as_slice().iter().enumerate() {
+                if p.holds(x, y) {
+                    f(i, p);
+                }
+            }
+        } else {
+            for &i in self.idx.get(..usize::from(self.len)).unwrap_or(&[]) {
+                if let Some(p) = all.as_slice().get(usize::from(i)) {
+                    f(usize::from(i), p);
+                }
+            }
+        }
+    }
+}
+
+/// Directions sampled on the rim of a pair's cone to bound its image.
+const RIM: usize = 32;
+/// cos and sin of 2π / [`RIM`].
+const STEP_COS: f32 = 0.980_785_3;
+const STEP_SIN: f32 = 0.195_090_32;
+
+/// The film rectangle of the image of the light `l` in the mirror `m`
+/// (centres `d` apart): the image of the pair's cone of directions is
+/// bounded by the image of the cone's rim, whose bounding box of [`RIM`]
+/// points is widened by twice the largest step between neighbours (the
+/// curve between two of them stays within that). `None` when a rim
+/// direction has no point on the mirror's visible side (the cone reaches
+/// the part the mirror hides from the eye) or its point is not in front of
+/// the eye.
+fn image_rect(camera: &Camera, m: &Sphere, l: &Sphere, d: f32) -> Option<[f32; 4]> {
+    let axis = (l.center - m.center) * (1.0 / d);
+    let sin = (l.radius + m.radius) / d;
+    let cos = math::sqrt(1.0 - sin * sin);
+    let (b1, b2) = axis.basis();
+    let film = |w: Vec3| {
+        let n = mirror_point(camera.eye(), m.center, m.radius, w)?;
+        camera.film_of(m.center + n * m.radius)
+    };
+    let [mut x0, mut y0] = film(axis)?;
+    let (mut x1, mut y1) = (x0, y0);
+    let mut gap = 0.0f32;
+    let mut prev: Option<[f32; 2]> = None;
+    let mut first = [0.0f32; 2];
+    // (cos, sin) of k · 2π / RIM, turned by a step each time
+    let (mut c, mut s) = (1.0f32, 0.0f32);
+    for k in 0..=RIM {
+        let [fx, fy] = if k == RIM {
+            first
+        } else {
+            film((axis * cos + (b1 * c + b2 * s) * sin).normalize())?
+        };
+        if let Some([px, py]) = prev {
+            gap = math::max(gap, math::max(math::abs(fx - px), math::abs(fy - py)));
+        } else {
+            first = [fx, fy];
+        }
+        prev = Some([fx, fy]);
+        (c, s) = (c * STEP_COS - s * STEP_SIN, s * STEP_COS + c * STEP_SIN);
+        (x0, y0) = (math::min(x0, fx), math::min(y0, fy));
+        (x1, y1) = (math::max(x1, fx), math::max(y1, fy));
+    }
+    let pad = 2.0 * gap + 1.0 / 64.0;
+    Some([x0 - pad, y0 - pad, x1 + pad, y1 + pad])
+}
+
+/// The pixels (inclusive) of the film rectangle `r` within the image, or
+/// `None` if there are none.
+fn pixel_rect(r: [f32; 4], w: u32, h: u32) -> Option<[u16; 4]> {
+    let x0 = math::max(r[0], 0.0);
+    let y0 = math::max(r[1], 0.0);
+    let x1 = math::min(r[2], w as f32 - 1.0 / 1024.0);
+    let y1 = math::min(r[3], h as f32 - 1.0 / 1024.0);
+    if !(x0 <= x1 && y0 <= y1) {
+        return None;
+    }
+    Some([
+        math::floor(x0) as u16,
+        math::floor(y0) as u16,
+        math::floor(x1) as u16,
+        math::floor(y1) as u16,
+    ])
+}
+
+/// The unit normal of the point of the sphere (centre `c`, radius `r`)
+/// seen from the eye `e` whose mirror reflection of the eye's ray leaves
+/// along the unit direction `w`, or `None` when no visible point reflects
+/// into `w` (it lies in the cone the sphere hides from the eye).
+///
+/// In the plane of `e − c` and `w`, with the normal at angle φ from the
+/// direction `u` to the eye (at distance `D`) and `w` at angle β:
+/// `h(φ) = n·w − n·e(φ)`, the difference of the cosines of the angles of
+/// reflection and of incidence, is negative at φ = 0 and has the sign of
+/// `2φ + atan2(r sin φ, D − r cos φ) − β`, which increases up to the
+/// horizon `cos φ = r / D`: one root, where `h ≥ 0` at the horizon. It is
+/// found by the Illinois method on `t = tan(φ / 2)`.
+#[inline(never)]
+pub fn mirror_point(e: Vec3, c: Vec3, r: f32, w: Vec3) -> Option<Vec3> {
+    let to_eye = e - c;
+    let dist = to_eye.length();
+    if !(dist > r) {
+        return None;
+    }
+    let u = to_eye * (1.0 / dist);
+    let cb = w.dot(u);
+    let perp = w - u * cb;
+    let sb = perp.length();
+    if !(sb > 1e-7) {
+        // reflected straight back (or away): the point facing the eye
+        return (cb > 0.0).then_some(u);
+    }
+    let v = perp * (1.0 / sb);
+    // h and its derivative in t (dφ/dt = 2 / (1 + t²))
+    let h = |t: f32| {
+        let t2 = t * t;
+        let k = 1.0 / (1.0 + t2);
+        let (cos, sin) = ((1.0 - t2) * k, 2.0 * t * k);
+        let l2 = dist * dist - 2.0 * dist * r * cos + r * r;
+        let inv_l = 1.0 / math::sqrt(l2);
+        let near = dist * cos - r;
+        let val = cos * cb + sin * sb - near * inv_l;
+        let dphi = -sin * cb
+            + cos * sb
+            + dist * sin * inv_l
+            + near * dist * r * sin * inv_l * inv_l * inv_l;
+        (val, dphi * 2.0 * k)
+    };
+    let (mut a, mut b) = (0.0f32, math::sqrt((dist - r) / (dist + r)));
+    if !(h(b).0 >= 0.0) {
+        return None;
+    }
+    // Newton from near φ = β/2 (the root for a distant eye), kept in the
+    // bracket [a, b] of a sign change (bisection when it would leave it)
+    // (one step of the fixed point n = (e(n) + w)/|e(n) + w| from the
+    // bisector of u and w, which is that root)
+    let n0 = (u + w).normalize();
+    let n1 = ((to_eye - n0 * r).normalize() + w).normalize();
+    let (c1, s1) = (n1.dot(u), n1.dot(v));
+    let mut t = math::clamp(s1 / (1.0 + c1), a, b);
+    for _ in 0..64 {
+        let (ht, dt) = h(t);
+        if ht < 0.0 {
+            a = t;
+        } else {
+            b = t;
+        }
+        let newton = t - ht / dt;
+        // quadratic convergence: after a Newton step of 1e-5 t the error is
+        // far below an f32 ulp of t (and at the noise of h's rounding the
+        // step may leave the bracket by an ulp)
+        if !(math::abs(newton - t) > 1e-5 * t) {
+            t = math::clamp(newton, a, b);
+            break;
+        }
+        t = if newton > a && newton < b {
+            newton
+        } else {
+            0.5 * (a + b)
+        };
+        if !(b - a > 4e-7 * b) {
+            break;
+        }
+    }
+    let t2 = t * t;
+    let k = 1.0 / (1.0 + t2);
+    Some(u * ((1.0 - t2) * k) + v * (2.0 * t * k))
+}
+
+/// The highlight estimate of pair `p` for pixel (`px`, `py`) from the
+/// numbers `rnd` in [0,1)²: `tint · L_e / (p(ω) |dω/dx|)` when the sampled
+/// film position lies in the pixel and its camera ray meets the mirror and
+/// then the light first, else `None` (zero). The rays it traces are counted
+/// in `stats.bounce_rays`.
+pub fn estimate(
+    scene: &SceneView<'_>,
+    camera: &Camera,
+    p: &Highlight,
+    px: u32,
+    py: u32,
+    rnd: [f32; 2],
+    stats: &mut Stats,
+) -> Option<Color> {
+    let m = scene.spheres.get(usize::from(p.mirror))?;
+    let l = scene.spheres.get(usize::from(p.light))?;
+    let Some(Material::Mirror(tint)) = scene.materials.get(m.material as usize) else {
+        return None;
+    };
+    let le = scene.materials.get(l.material as usize)?.emission()?;
+    let reach = l.radius + m.radius;
+    let cone = light::sample_cone(m.center, l.center, reach * reach, rnd[0], rnd[1], false)?;
+    let n = mirror_point(camera.eye(), m.center, m.radius, cone.dir)?;
+    let [fx, fy] = camera.film_of(m.center + n * m.radius)?;
+    let (x0, y0) = (px as f32, py as f32);
+    if !(fx >= x0 && fx < x0 + 1.0 && fy >= y0 && fy < y0 + 1.0) {
+        return None;
+    }
+    // the camera ray of that film position, as the path tracer traces it
+    // (the query out of line, which gives the same hits as the inlined one
+    // the path tracer uses)
+    let ray = camera.ray(fx, fy);
+    stats.bounce_rays += 1;
+    let hit = scene.closest_hit_any(&ray, ObjectId::NONE)?;
+    if hit.object != ObjectId::sphere(usize::from(p.mirror)) {
+        return None;
+    }
+    let wc = ray.dir;
+    let n = hit.normal;
+    let w = reflect(wc, n);
+    stats.bounce_rays += 1;
+    let on = scene.closest_hit_any(&hit.spawn(w), hit.object)?;
+    if on.object != ObjectId::sphere(usize::from(p.light)) || !(w.dot(on.normal) < 0.0) {
+        return None;
+    }
+    // |dω/dx|: a film step moves the camera ray (a), its point on the
+    // sphere (along the ray's new direction to the tangent plane) and so
+    // the normal (dP / r); the reflection moves with both
+    let (a1, a2) = camera.dir_derivatives(fx, fy);
+    let nc = n.dot(wc);
+    if !(nc < 0.0) {
+        return None;
+    }
+    let dw = |a: Vec3| {
+        let dp = (a - wc * (n.dot(a) / nc)) * hit.t;
+        let dn = dp * (1.0 / m.radius);
+        a - (n * (a.dot(n) + wc.dot(dn)) + dn * nc) * 2.0
+    };
+    let jac = math::abs(dw(a1).cross(dw(a2)).dot(w));
+    if !(jac > 0.0) {
+        return None;
+    }
+    Some(*tint * le * (1.0 / (cone.pdf * jac)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::CameraSpec;
+
+    /// A xorshift stream of numbers in [0, 1).
+    fn numbers() -> impl FnMut() -> f32 {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
+    /// Law checked: the law of reflection. The point `mirror_point` finds
+    /// reflects the ray from the eye into the asked direction (angle of
+    /// incidence = angle of reflection, in the plane of incidence), on the
+    /// side the eye sees; and a direction it finds no point for lies in
+    /// the cone behind the sphere that no visible point reflects into
+    /// (angle to the eye's direction beyond 90° plus the horizon angle).
+    #[test]
+    fn mirror_point_obeys_the_law_of_reflection() {
+        let mut next = numbers();
+        for (d, r) in [
+            (13.0f32, 0.2f32),
+            (13.0, 1.0),
+            (3.0, 1.0),
+            (1.2, 1.0),
+            (1e4, 0.5),
+        ] {
+            let (mut found, mut hidden) = (0, 0);
+            for _ in 0..4000 {
+                let w = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize();
+                let e = Vec3::new(d, 0.0, 0.0);
+                let horizon = math::sqrt(1.0 - (r / d) * (r / d)); // sin of the horizon angle
+                match mirror_point(e, Vec3::ZERO, r, w) {
+                    Some(n) => {
+                        let i = (n * r - e).normalize();
+                        assert!(i.dot(n) < 0.0, "the eye sees the point");
+                        let out = reflect(i, n);
+                        // f32: the root's rounding, a few ulps of the
+                        // angle, grows as the eye nears the sphere
+                        let tol = 2e-5 * d / (d - r);
+                        assert!((out - w).length() < tol, "d {d} r {r} w {w:?}: {out:?}");
+                        found += 1;
+                    }
+                    None => {
+                        // beyond β = π/2 + φ_h: cos β < −sin φ_h
+                        let cb = w.dot(Vec3::new(1.0, 0.0, 0.0));
+                        assert!(cb < -horizon * 0.999 + 1e-3, "d {d} r {r} w {w:?}");
+                        hidden += 1;
+                    }
+                }
+            }
+            // (a distant eye sees almost all of the sphere: its hidden cone is
+            // too narrow for random directions to fall in)
+            assert!(
+                found > 2000 && (hidden > 0 || r / d < 0.3),
+                "{found} {hidden}"
+            );
+        }
+    }
+
+    /// A camera looking down −z at a field of mirror balls under one sun.
+    fn field() -> (crate::Scene<64, 4, 8>, Camera) {
+        let mut b = crate::SceneBuilder::<64, 4, 8>::new();
+        let mirror = b.material(Material::Mirror(Color::splat(0.8))).unwrap();
+        let sun = b.material(Material::Light(Color::splat(500.0))).unwrap();
+        let spec = CameraSpec::pinhole(
+            Vec3::new(0.0, 1.0, 6.0),
+            Vec3::ZERO,
+            Vec3::new(0.0, 1.0, 0.0),
+            40.0,
+        );
+        b.camera(spec).unwrap();
+        for i in 0..5 {
+            for j in 0..3 {
+                let c = Vec3::new(i as f32 - 2.0, 0.0, -(j as f32) * 1.5);
+                b.sphere(c, 0.05 + 0.1 * (i + j) as f32 / 6.0, mirror)
+                    .unwrap();
+            }
+        }
+        b.sphere(Vec3::new(300.0, 800.0, 200.0), 30.0, sun).unwrap();
+        let scene = b.build().unwrap();
+        let camera = Camera::new(&spec, 48, 32).unwrap();
+        (scene, camera)
+    }
+
+    /// Every film position the estimator can sample for a pair lies in the
+    /// pair's pixel rectangle (only those pixels run it, while the path
+    /// tracer leaves the pair's emission out everywhere).
+    #[test]
+    fn sampled_film_positions_lie_in_the_pairs_rectangle() {
+        let (scene, camera) = field();
+        let view = scene.view(camera.view_cos() - 1e-4);
+        let pairs = Highlights::new(&view, &camera);
+        assert_eq!(
+            pairs.as_slice().len(),
+            15,
+            "every ball's highlight is in view"
+        );
+        let mut next = numbers();
+        for p in pairs.as_slice() {
+            let m = view.spheres[p.mirror as usize];
+            let l = view.spheres[p.light as usize];
+            let reach = l.radius + m.radius;
+            let [x0, y0, x1, y1] = p.pixels;
+            for _ in 0..2000 {
+                let Some(cone) =
+                    light::sample_cone(m.center, l.center, reach * reach, next(), next(), false)
+                else {
+                    continue;
+                };
+                let Some(n) = mirror_point(camera.eye(), m.center, m.radius, cone.dir) else {
+                    continue;
+                };
+                let [fx, fy] = camera.film_of(m.center + n * m.radius).unwrap();
+                let (px, py) = (math::floor(fx), math::floor(fy));
+                if px < 0.0 || py < 0.0 || px >= 48.0 || py >= 32.0 {
+                    continue;
+                }
+                assert!(
+                    px >= f32::from(x0)
+                        && px <= f32::from(x1)
+                        && py >= f32::from(y0)
+                        && py <= f32::from(y1),
+                    "({fx}, {fy}) outside {:?}",
+                    p.pixels
+                );
+            }
+        }
+    }
+}
