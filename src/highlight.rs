@@ -57,8 +57,9 @@ pub struct Highlight {
     pub mirror: u16,
     /// Scene index of the light sphere.
     pub light: u16,
-    /// Pixels `[x0, y0, x1, y1]` (inclusive) that can hold the mirror's
-    /// image.
+    /// Pixels `[x0, y0, x1, y1]` (inclusive) that can hold the light's
+    /// image in the mirror (the film rectangle of the pair's cone of
+    /// directions).
     pub pixels: [u16; 4],
 }
 
@@ -172,11 +173,7 @@ impl Highlights {
     /// The pairs whose rectangles hold pixel (x, y).
     #[inline(never)]
     pub fn at(&self, x: u32, y: u32) -> PixelHighlights {
-        let mut out = PixelHighlights {
-            idx: [0; PIXEL_PAIRS],
-            len: 0,
-            all: false,
-        };
+        let mut out = PixelHighlights::NONE;
         for (i, p) in self.as_slice().iter().enumerate() {
             if u32::from(p.pixels[1]) > y {
                 break;
@@ -316,7 +313,8 @@ fn pixel_rect(r: [f32; 4], w: u32, h: u32) -> Option<[u16; 4]> {
 /// reflection and of incidence, is negative at φ = 0 and has the sign of
 /// `2φ + atan2(r sin φ, D − r cos φ) − β`, which increases up to the
 /// horizon `cos φ = r / D`: one root, where `h ≥ 0` at the horizon. It is
-/// found by the Illinois method on `t = tan(φ / 2)`.
+/// found by Newton's method on `t = tan(φ / 2)`, kept in the bracket of a
+/// sign change.
 #[inline(never)]
 pub fn mirror_point(e: Vec3, c: Vec3, r: f32, w: Vec3) -> Option<Vec3> {
     let to_eye = e - c;
@@ -352,10 +350,10 @@ pub fn mirror_point(e: Vec3, c: Vec3, r: f32, w: Vec3) -> Option<Vec3> {
     if !(h(b).0 >= 0.0) {
         return None;
     }
-    // Newton from near φ = β/2 (the root for a distant eye), kept in the
-    // bracket [a, b] of a sign change (bisection when it would leave it)
-    // (one step of the fixed point n = (e(n) + w)/|e(n) + w| from the
-    // bisector of u and w, which is that root)
+    // Newton, kept in the bracket [a, b] of a sign change (bisection when
+    // it would leave it), from one step of the fixed point
+    // n = (e(n) + w) / |e(n) + w| taken from the bisector of u and w (the
+    // root for a distant eye)
     let n0 = (u + w).normalize();
     let n1 = ((to_eye - n0 * r).normalize() + w).normalize();
     let (c1, s1) = (n1.dot(u), n1.dot(v));
