@@ -233,6 +233,8 @@ pub struct Listed {
 /// The spheres named by `ids`, copied with their ids (a push loop:
 /// heapless' `collect` keeps a panic branch that the firmware's panic-never
 /// link rejects).
+/// Out of line: one copy serves both lists.
+#[inline(never)]
 fn listed<const S: usize>(spheres: &[Sphere], ids: &[u16], out: &mut Vec<Listed, S>) {
     out.clear();
     for &i in ids {

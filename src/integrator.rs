@@ -1161,6 +1161,16 @@ fn split_at_glass(
     let Material::Glass(ior) = *mat else {
         return None;
     };
+    split_glass(ior, hit, ray)
+}
+
+/// The two continuations of [`split_at_glass`]. Out of line on a board
+/// (no OS): it runs at most once per path, and each path variant of the
+/// tracer held a copy of it in the flash.
+#[cfg(feature = "glass")]
+#[cfg_attr(target_os = "none", inline(never))]
+#[cfg_attr(not(target_os = "none"), inline(always))]
+fn split_glass(ior: f32, hit: &Hit, ray: &Ray) -> Option<(crate::material::DeltaSample, Branch)> {
     let (r_dir, r, t_dir, scale) = crate::material::split_dielectric(ray.dir, hit.normal, ior)?;
     Some((
         crate::material::DeltaSample {
@@ -1305,7 +1315,7 @@ fn nee<const MANY: bool, const TREE: bool, B: Lobe>(
 /// to the cap's surface.
 /// `a = p_bsdf / p_light = (π p_bsdf / π) · (A |n·ω| / |y − x|²) / p_sel`.
 #[allow(clippy::too_many_arguments)]
-#[inline(never)]
+#[inline(always)]
 fn nee_window<const MANY: bool, const TREE: bool, B: Lobe>(
     scene: &SceneView<'_>,
     hit: &Hit,
@@ -1320,6 +1330,33 @@ fn nee_window<const MANY: bool, const TREE: bool, B: Lobe>(
     shadows: &mut u32,
     w: &Window,
 ) -> Option<Color> {
+    let (dir, cos, inv_pdf) = match window_sample::<TREE>(scene, hit, n, c, u, opts, shadows, w)? {
+        Some(s) => s,
+        None => return Some(Color::ZERO),
+    };
+    let (s, pi_pdf) = lobe.eval(wo, n, dir, cos);
+    let a = pi_pdf * inv_pdf * math::INV_PI;
+    let a = if MANY { a / c.p_sel } else { a };
+    Some(f * s * le * mis_weight(a, opts))
+}
+
+/// The lobe-independent part of [`nee_window`]: `None` where the window
+/// does not show all of the cap, `Some(None)` for a sample that adds
+/// nothing (below the surface, missing the cap, blocked), else the
+/// direction, its cosine and `1 / pdf`. Out of line: one copy serves every
+/// light plan and lobe type.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn window_sample<const TREE: bool>(
+    scene: &SceneView<'_>,
+    hit: &Hit,
+    n: Vec3,
+    c: &LightChoice,
+    u: [f32; 2],
+    opts: &Options,
+    shadows: &mut u32,
+    w: &Window,
+) -> Option<Option<(Vec3, f32, f32)>> {
     if !w.covers(hit.point) {
         return None;
     }
@@ -1327,14 +1364,14 @@ fn nee_window<const MANY: bool, const TREE: bool, B: Lobe>(
     let (dir, inv_pdf) = w.sample(hit.point, u[0], u[1], opts.fast_math);
     let cos = n.dot(dir);
     if !(cos > 0.0 && inv_pdf > 0.0) {
-        return Some(Color::ZERO);
+        return Some(None);
     }
     let Some(light) = scene.spheres.get(c.sphere) else {
-        return Some(Color::ZERO);
+        return Some(None);
     };
     // the cap lies between the point and the disk: the near intersection
     let Some(dist) = light.intersect(&Ray::new(hit.point, dir), f32::INFINITY) else {
-        return Some(Color::ZERO);
+        return Some(None);
     };
     *shadows += 1;
     let shadow = hit.spawn_on(n, dir);
@@ -1344,13 +1381,7 @@ fn nee_window<const MANY: bool, const TREE: bool, B: Lobe>(
     } else {
         scene.occluded_by_any(&shadow, dist, hit.object, target)
     };
-    if blocked {
-        return Some(Color::ZERO);
-    }
-    let (s, pi_pdf) = lobe.eval(wo, n, dir, cos);
-    let a = pi_pdf * inv_pdf * math::INV_PI;
-    let a = if MANY { a / c.p_sel } else { a };
-    Some(f * s * le * mis_weight(a, opts))
+    Some((!blocked).then_some((dir, cos, inv_pdf)))
 }
 
 /// The weight `a / (1 + a²)` (MIS, power heuristic) or `a` (light
