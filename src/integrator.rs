@@ -31,13 +31,16 @@
 //! from the pixel's stratified pairs; later vertices use independent
 //! numbers. Paths end by Russian roulette on the throughput after
 //! [`Options::rr_start`] bounces (survival `min(1, rr_gain × max
-//! component)`, [`Options::rr_gain`]), which keeps the estimator unbiased. A hard
-//! depth cap ([`Options::max_depth`], default 256) exists only as a guard
-//! against endless paths in closed scenes of albedo-1 mirrors, where
-//! roulette never fires; in any scene with an albedo below 1 its
-//! contribution is below 0.999^253 of a throughput that roulette has already
-//! reduced — far beyond any measurable effect. In a box of perfect mirrors it
-//! drops the light of paths longer than 256 bounces (documented bias).
+//! component)`, [`Options::rr_gain`]), which keeps the estimator unbiased.
+//! Roulette on the throughput alone never ends a path whose throughput
+//! does not fall: one caught in total internal reflection inside glass, or
+//! in a closed box of albedo-1 mirrors. So from [`Options::deep_start`]
+//! bounces on, the survival is also at most [`Options::deep_survival`] per
+//! bounce (and the survivors' weight is divided by it, as for any roulette):
+//! every path ends with probability 1 and the estimate stays unbiased. The
+//! hard depth cap ([`Options::max_depth`]) is only a safety net behind it:
+//! with the defaults a path reaches it with probability below 1e-13. The
+//! paths it still ends are counted ([`Stats::truncated`]).
 //!
 //! Each path is an unbiased sample of its pixel. A pixel's mean stays
 //! unbiased only if the number of samples it gets does not depend on their
@@ -149,7 +152,19 @@ pub struct Options {
     /// 1/(MSE × time) of the settings compared (docs/bench.md, "Russian
     /// roulette").
     pub rr_gain: f32,
-    /// Guard against endless paths (see the module docs).
+    /// Bounces from which Russian roulette also ends a path with
+    /// probability at least `1 − deep_survival` per bounce, whatever its
+    /// throughput (see the module docs).
+    pub deep_start: u32,
+    /// The most a path may survive each bounce from [`Options::deep_start`]
+    /// on. Close to 1, so that the weight of a long path that finds light
+    /// (`1 / deep_survival` per bounce) grows slowly: the estimate's
+    /// variance stays finite wherever a path finds light more often than
+    /// once in `1 / (1 − deep_survival)` bounces.
+    pub deep_survival: f32,
+    /// Hard cap on a path's bounces: a safety net behind the depth roulette
+    /// that ends, biased, the rare path still alive after it
+    /// ([`Stats::truncated`] counts them).
     pub max_depth: u32,
     /// Work skipped because the scene cannot need it.
     pub skip: Skip,
@@ -168,7 +183,9 @@ impl Default for Options {
             fast_math: false,
             rr_start: 2,
             rr_gain: 1.5,
-            max_depth: 256,
+            deep_start: 256,
+            deep_survival: 1.0 - 1.0 / 1024.0,
+            max_depth: 32768,
             skip: Skip::ALL,
             highlights: true,
         }
@@ -190,6 +207,10 @@ pub struct Stats {
     pub nonfinite: u64,
     /// Rays that escaped a closed scene: numerical leaks (should be 0).
     pub leaks: u64,
+    /// Paths (or branches of a path split at glass) that the depth cap
+    /// [`Options::max_depth`] ended: each drops whatever light it would
+    /// still have found, a bias (should be 0).
+    pub truncated: u64,
 }
 
 impl Stats {
@@ -205,6 +226,7 @@ impl Stats {
         self.shadow_rays += o.shadow_rays;
         self.nonfinite += o.nonfinite;
         self.leaks += o.leaks;
+        self.truncated += o.truncated;
     }
 }
 
@@ -812,7 +834,7 @@ fn trace<const MANY: bool, const TREE: bool>(
     };
     // counted here and added to `stats` once per path (u64 additions are
     // four instructions each on a 32-bit core)
-    let (mut bounces, mut shadows) = (0u32, 0u32);
+    let (mut bounces, mut shadows, mut truncated) = (0u32, 0u32, 0u32);
     let mut depth = 0u32;
     // whether the path may no longer split at a glass vertex: it has split,
     // or met a non-delta vertex
@@ -1089,7 +1111,12 @@ fn trace<const MANY: bool, const TREE: bool>(
             }
             depth += 1;
             if depth >= opts.rr_start {
-                let p = thr.max_component() * rr_scale * opts.rr_gain;
+                let mut p = thr.max_component() * rr_scale * opts.rr_gain;
+                if depth >= opts.deep_start {
+                    // a path this long may be caught where its throughput
+                    // never falls (total internal reflection, a mirror box)
+                    p = if p < 1.0 { p } else { 1.0 } * opts.deep_survival;
+                }
                 if p < 1.0 {
                     if !(stream.next_f32() < p) {
                         break;
@@ -1098,6 +1125,7 @@ fn trace<const MANY: bool, const TREE: bool>(
                 }
             }
             if depth >= opts.max_depth {
+                truncated += 1;
                 break;
             }
             from = hit.object;
@@ -1120,6 +1148,7 @@ fn trace<const MANY: bool, const TREE: bool>(
     stats.paths += 1;
     stats.bounce_rays += u64::from(bounces);
     stats.shadow_rays += u64::from(shadows);
+    stats.truncated += u64::from(truncated);
     l
 }
 

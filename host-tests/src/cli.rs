@@ -391,6 +391,14 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
     let out = render_budget(&scene, &job, &|| bar.inc(1))?;
     bar.finish_and_clear();
     out.image.save(&output, a.exposure)?;
+    if out.stats.truncated > 0 {
+        // the depth cap dropped light: the image is biased (`--json` counts it)
+        eprintln!(
+            "micropt: warning: {} of {} paths reached the depth cap of {} bounces and were \
+             cut short (their remaining light is missing)",
+            out.stats.truncated, out.stats.paths, job.options.max_depth
+        );
+    }
     if a.json {
         let s = &out.stats;
         let pixels = f64::from(width) * f64::from(height);
@@ -424,6 +432,7 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
             "shadow_rays": s.shadow_rays,
             "nonfinite": s.nonfinite,
             "leaks": s.leaks,
+            "truncated": s.truncated,
             "bvh_nodes": if job.options.skip.bvh { scene.bvh().len() } else { 0 },
             "bvh_depth": if job.options.skip.bvh { scene.bvh().depth() } else { 0 },
             "highlight_pairs": micropt::Renderer::new(&scene, width, height)

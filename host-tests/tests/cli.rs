@@ -68,6 +68,7 @@ fn renders_png_pfm_and_rgb565_with_json() {
     assert_eq!(v["estimator"], "adaptive (biased, consistent)");
     assert_eq!(v["nonfinite"], 0);
     assert_eq!(v["leaks"], 0);
+    assert_eq!(v["truncated"], 0);
     assert!(v["min_pixel_samples"].as_u64().unwrap() >= 1);
     let rays = v["rays"].as_u64().unwrap();
     let parts = v["camera_rays"].as_u64().unwrap()
