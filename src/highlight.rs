@@ -31,12 +31,12 @@
 
 use crate::camera::Camera;
 use crate::geometry::{Color, ObjectId, Sphere, Vec3};
-use crate::integrator::Stats;
 use crate::light;
 use crate::material::Material;
 use crate::material::mirror::reflect;
 use crate::math;
 use crate::scene::SceneView;
+use crate::stats::Stats;
 
 /// Most (mirror, light) pairs a render estimates this way; further pairs
 /// are left to the path tracer.

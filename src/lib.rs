@@ -61,6 +61,7 @@ pub mod parse;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod stats;
 
 pub use budget::{AdaptiveOptions, Budget, Clock};
 pub use camera::{Camera, CameraError, CameraSpec};

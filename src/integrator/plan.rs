@@ -1,0 +1,195 @@
+//! What every path of a render decides the same way ([`PathPlan`]: the
+//! lights to sample, the one-light variant, the horizon tests, the
+//! windows), the scene as one path sees it ([`Ctx`]) and what a path keeps
+//! of its last non-delta vertex ([`PrevVertex`]).
+
+use super::Options;
+use crate::geometry::{Color, ObjectId, Vec3};
+use crate::light::Window;
+use crate::material::Material;
+use crate::scene::SceneView;
+
+/// Where the last diffuse vertex was, for weighting an emitter that its
+/// BSDF sample hits.
+#[derive(Clone, Copy)]
+pub(super) struct PrevVertex {
+    pub(super) point: Vec3,
+    pub(super) normal: Vec3,
+    pub(super) bsdf_pdf: f32,
+    /// Sum of light-selection weights at that vertex, negated where a
+    /// glossy lobe chose the light ([`GlossyChoice`] holds the rest).
+    pub(super) weight_sum: f32,
+    /// With one light: its 1 − cos θ_max seen from that vertex, as
+    /// next-event estimation computed it (0: it could not be sampled there),
+    /// negated where next-event estimation sampled the light's window.
+    pub(super) light_omc: f32,
+    /// Whether the horizon test was done there.
+    pub(super) horizon: bool,
+}
+
+/// What every path of a render decides the same way, from the scene view
+/// and the options alone: made once per render ([`PathPlan::new`]; the
+/// renderer keeps it) rather than once per path.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PathPlan<'a> {
+    /// Emitters that next-event estimation samples.
+    pub(super) lights: &'a [u16],
+    /// The several-lights variant of the path tracer (or no light at all,
+    /// or the `specialize` skip off).
+    pub(super) many: bool,
+    /// Zero weight for lights entirely below the horizon of a point of a
+    /// plane (the skip is on and the scene analysis found it can happen).
+    pub(super) horizon_planes: bool,
+    /// The same for points of spheres.
+    pub(super) horizon_spheres: bool,
+    /// The only light, looked up once (scenes with one light).
+    pub(super) one: Option<OneLight<'a>>,
+    /// Windows of lights cut by a wall (empty with that skip off).
+    pub(super) windows: &'a [Window],
+}
+
+impl<'a> PathPlan<'a> {
+    /// The plan of every path through `scene` with `opts`.
+    pub(crate) fn new(scene: &SceneView<'a>, opts: &Options) -> Self {
+        let skip = &opts.skip;
+        let lights = if skip.unreachable_lights {
+            scene.lights
+        } else {
+            scene.emitters
+        };
+        // no light at all: the general variant, which runs fewer
+        // instructions there than the one-light variant (docs/bench.md) and
+        // draws the same numbers
+        let many = lights.len() != 1 || !skip.specialize;
+        let windows: &[Window] = if cfg!(feature = "windows") && skip.windows {
+            scene.windows
+        } else {
+            &[]
+        };
+        Self {
+            lights,
+            many,
+            horizon_planes: skip.horizon && scene.horizon_planes,
+            horizon_spheres: skip.horizon && scene.horizon_spheres,
+            one: if many {
+                None
+            } else {
+                OneLight::first(scene, lights, windows)
+            },
+            windows,
+        }
+    }
+}
+
+/// The scene as one path sees it: the view plus the render's plan.
+pub(super) struct Ctx<'v, 'a> {
+    pub(super) scene: &'v SceneView<'a>,
+    pub(super) plan: &'v PathPlan<'a>,
+    /// The (mirror, light) pairs whose emission right after the camera's
+    /// mirror [`crate::highlight`] estimates instead.
+    #[cfg(feature = "highlight")]
+    pub(super) highlights: Option<&'v crate::highlight::Highlights>,
+}
+
+/// What next-event estimation needs of a scene's only light.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct OneLight<'a> {
+    pub(super) sphere: usize,
+    pub(super) center: Vec3,
+    pub(super) radius: f32,
+    pub(super) radius2: f32,
+    pub(super) le: Color,
+    pub(super) window: Option<&'a Window>,
+}
+
+impl<'a> OneLight<'a> {
+    /// The first of `lights`, if it is an emitting sphere.
+    #[inline(always)]
+    pub(super) fn first(
+        scene: &SceneView<'_>,
+        lights: &[u16],
+        windows: &'a [Window],
+    ) -> Option<Self> {
+        let i = *lights.first()? as usize;
+        let s = scene.spheres.get(i)?;
+        let le = scene.materials.get(s.material as usize)?.emission()?;
+        Some(Self {
+            sphere: i,
+            center: s.center,
+            radius: s.radius,
+            radius2: s.radius2,
+            le,
+            window: window_of(windows, i),
+        })
+    }
+}
+
+impl<'a> Ctx<'_, 'a> {
+    /// The windows in force. Without the `windows` feature none, as a
+    /// constant: such a build has no window code.
+    #[inline(always)]
+    pub(super) fn windows(&self) -> &'a [Window] {
+        if cfg!(feature = "windows") {
+            self.plan.windows
+        } else {
+            &[]
+        }
+    }
+
+    /// The only light's window (see [`Ctx::windows`]).
+    #[inline(always)]
+    pub(super) fn window_of_one(one: &OneLight<'a>) -> Option<&'a Window> {
+        if cfg!(feature = "windows") {
+            one.window
+        } else {
+            None
+        }
+    }
+
+    pub(super) fn light_lum(&self, sphere: usize) -> f32 {
+        let s = &self.scene;
+        s.spheres
+            .get(sphere)
+            .and_then(|x| s.materials.get(x.material as usize))
+            .and_then(Material::emission)
+            .map_or(0.0, |le| le.luminance())
+    }
+
+    /// Whether the horizon test is worth doing on `object`.
+    #[inline(always)]
+    pub(super) fn horizon_at(&self, object: ObjectId) -> bool {
+        if object.as_sphere().is_some() {
+            self.plan.horizon_spheres
+        } else {
+            self.plan.horizon_planes
+        }
+    }
+
+    /// Whether light sphere `i` can be sampled from `x` with normal `n`:
+    /// `x` outside it and (with `horizon`) not all of it below the
+    /// tangent plane, `n · (c − x) < −r`.
+    /// Returns the vector to the centre, its squared length and the
+    /// squared radius.
+    #[inline(always)]
+    pub(super) fn samplable(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        i: usize,
+        horizon: bool,
+    ) -> Option<(Vec3, f32, f32)> {
+        let s = self.scene.spheres.get(i)?;
+        let to_c = s.center - x;
+        let d2 = to_c.length_squared();
+        if !(d2 > s.radius2) || (horizon && n.dot(to_c) < -s.radius) {
+            return None;
+        }
+        Some((to_c, d2, s.radius2))
+    }
+}
+
+/// The window of light sphere `i`, if a wall cuts it.
+#[inline(always)]
+pub(super) fn window_of(windows: &[Window], i: usize) -> Option<&Window> {
+    windows.iter().find(|w| w.light as usize == i)
+}
