@@ -22,10 +22,17 @@ use crate::{
 pub const LENS_PAIR: u32 = 3;
 
 /// The largest sample component a render keeps: `f32::MAX / 2^20`, so that
-/// the sum of a pixel's samples (at most [`crate::budget::MAX_SPP`] =
+/// the sum of a pixel's samples (at most [`MAX_SPP`] =
 /// 2^20) cannot overflow. Larger (and non-finite) samples are counted in
-/// [`Stats::nonfinite`](crate::integrator::Stats::nonfinite) and dropped.
-pub const SAMPLE_MAX: f32 = f32::MAX / crate::budget::MAX_SPP as f32;
+/// [`Stats::nonfinite`](crate::stats::Stats::nonfinite) and dropped.
+pub const SAMPLE_MAX: f32 = f32::MAX / MAX_SPP as f32;
+
+/// Most samples per pixel, on average, that a budget
+/// ([`crate::budget::Budget`]) may ask for: a pixel's count (a `u32`, at
+/// most a tile's samples) never overflows, a pixel's sum of samples below
+/// [`SAMPLE_MAX`] stays finite, and a deadline far in the future still
+/// ends. Larger budgets are clamped to it.
+pub const MAX_SPP: u32 = 1 << 20;
 
 /// Renders pixels of one scene at one image size.
 ///
