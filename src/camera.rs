@@ -9,9 +9,9 @@
 //! the view axis blur into a disk of radius `aperture · |z − focus| / focus`.
 
 use crate::geometry::{Ray, Vec3};
-#[cfg(feature = "lens")]
-use crate::material;
 use crate::math;
+#[cfg(feature = "lens")]
+use crate::sampler;
 
 /// The camera as a scene describes it (`camera` statement).
 ///
@@ -299,7 +299,7 @@ impl Camera {
 
     /// The primary ray through film position (`fx`, `fy`) (as
     /// [`Camera::ray`]) from the lens position that `lens` in [0,1)² maps
-    /// to, uniformly over the lens disk ([`crate::material::concentric_disk`]).
+    /// to, uniformly over the lens disk ([`crate::sampler::concentric_disk`]).
     /// It aims at the point where the pinhole ray through (`fx`, `fy`) meets
     /// the plane of focus: the film direction `d` has a forward component of
     /// exactly 1, so that point is `eye + focus · d`, and the direction from
@@ -311,7 +311,7 @@ impl Camera {
     #[inline]
     pub fn lens_ray(&self, fx: f32, fy: f32, lens: [f32; 2]) -> Ray {
         let d = self.corner + self.dx * fx + self.dy * fy;
-        let (a, b, _) = material::concentric_disk(lens[0], lens[1], false);
+        let (a, b, _) = sampler::concentric_disk(lens[0], lens[1], false);
         let offset = self.lens_u * a + self.lens_v * b;
         let turn = self.turn_u * a + self.turn_v * b;
         Ray::new(self.eye + offset, (d - turn).normalize())

@@ -1,8 +1,8 @@
 //! Sphere lights: uniform sampling of the cone they subtend, and its pdf.
 
 use crate::geometry::Vec3;
-use crate::material::concentric_disk;
 use crate::math;
+use crate::sampler::concentric_disk;
 
 /// A direction toward a sphere light, the distance to its surface along it,
 /// and the pdf of having chosen it (per unit solid angle).

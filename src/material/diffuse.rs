@@ -1,8 +1,9 @@
 //! The Lambertian reflector: `f = albedo / π`, sampled by the cosine.
 
-use super::{BsdfSample, Lobe, concentric_disk};
+use super::{BsdfSample, Lobe};
 use crate::geometry::{Color, Vec3};
 use crate::math;
+use crate::sampler::concentric_disk;
 use crate::scene::SceneError;
 use crate::scene::builder::check_unit_range;
 

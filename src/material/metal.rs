@@ -20,12 +20,14 @@
 //! is `F G1(wi)`: never above the tint, never divided by a small pdf.
 
 #[cfg(feature = "metal")]
-use super::{BsdfSample, Lobe, concentric_disk, reflect};
+use super::{BsdfSample, Lobe, reflect};
 use crate::geometry::Color;
 #[cfg(feature = "metal")]
 use crate::geometry::Vec3;
 #[cfg(feature = "metal")]
 use crate::math;
+#[cfg(feature = "metal")]
+use crate::sampler::concentric_disk;
 use crate::scene::SceneError;
 use crate::scene::builder::check_unit_range;
 

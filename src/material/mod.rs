@@ -30,7 +30,6 @@ pub use metal::Metal;
 pub use mirror::reflect;
 
 use crate::geometry::{Color, Hit, Vec3};
-use crate::math;
 use crate::sampler::SampleStream;
 use crate::scene::SceneError;
 
@@ -254,44 +253,5 @@ impl Bsdf {
             #[cfg(feature = "metal")]
             Bsdf::Ggx(m) => m.sample(wo, n, u, fast),
         }
-    }
-}
-
-/// Shirley and Chiu's concentric map of `(u1, u2)` in [0,1)² onto the unit
-/// disk: area-preserving (uniform points stay uniform), and low distortion,
-/// so that stratified points stay well spread. Square rings map to circles:
-/// the radius is the larger of |a|, |b| (the square's coordinates in
-/// (−1, 1)), and the angle within each quarter is linear in the other
-/// coordinate, so only `sin`/`cos` on [−π/4, π/4] are needed
-/// ([`math::sincos_quarter`]; micromath's with `fast`).
-///
-/// Returns `(x, y, ρ²)` with `ρ² = x² + y²` (up to rounding).
-/// The square is `a = 2u₁ − (1 − 2⁻²⁴)`: for the 24-bit uniforms of
-/// [`crate::sampler`] (multiples of 2⁻²⁴) that is exact, symmetric, never 0
-/// and never ±1, so `ρ ≤ 1 − 2⁻²⁴` and `1 − ρ²` is at least 2⁻²³.
-#[inline(always)]
-pub fn concentric_disk(u1: f32, u2: f32, fast: bool) -> (f32, f32, f32) {
-    // 1 − 2⁻²⁴: with u in [0, 1) on the 2⁻²⁴ grid, a is an odd multiple of
-    // 2⁻²⁴ in (−1, 1)
-    const ONE_BELOW: f32 = 1.0 - 1.0 / 16_777_216.0;
-    let a = 2.0 * u1 - ONE_BELOW;
-    let b = 2.0 * u2 - ONE_BELOW;
-    let (r, q, swap) = if math::abs(a) > math::abs(b) {
-        (a, b / a, false)
-    } else {
-        (b, a / b, true)
-    };
-    let phi = q * (0.25 * math::PI);
-    let (s, c) = if fast {
-        math::fast_sincos_quarter(phi)
-    } else {
-        math::sincos_quarter(phi)
-    };
-    // angle phi from the x axis in the quarters |a| > |b|, π/2 − phi
-    // from it in the others (r's sign turns the opposite quarters)
-    if swap {
-        (r * s, r * c, r * r)
-    } else {
-        (r * c, r * s, r * r)
     }
 }
