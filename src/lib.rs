@@ -21,14 +21,17 @@
 //! # Ok::<(), micropt::parse::ParseError>(())
 //! ```
 //!
-//! Modules, one per concept: [`analysis`] (work a scene never needs), [`math`] (every float function, explicitly),
-//! [`geometry`] (vectors, rays, spheres, planes), [`camera`], [`material`],
-//! [`light`], [`sampler`], [`scene`], [`parse`], [`integrator`], [`film`],
-//! [`render`], [`budget`] (fixed budgets, progressive and adaptive),
-//! `highlight` (lights seen in mirror balls, sampled from the light's side;
-//! feature `highlight`),
-//! [`multicore`] (one budgeted render shared between cores; on targets with
-//! atomic read-modify-write).
+//! Modules, one per concept, each importing only from those listed before
+//! it (docs/architecture.md): [`math`] (every float function, explicitly),
+//! [`sampler`] (random streams, Sobol points, the concentric disk),
+//! [`geometry`] (vectors, rays, spheres, planes), [`camera`], [`error`]
+//! (what can be wrong with a scene, and the value checks), [`light`],
+//! [`material`], [`analysis`] (work a scene never needs), [`scene`],
+//! [`parse`], [`stats`] (work counters), `highlight` (lights seen in mirror
+//! balls, sampled from the light's side; feature `highlight`),
+//! [`integrator`], [`film`], [`render`], [`budget`] (fixed budgets,
+//! progressive and adaptive), [`multicore`] (one budgeted render shared
+//! between cores; on targets with atomic read-modify-write).
 
 #![no_std]
 #![cfg_attr(
@@ -46,6 +49,7 @@
 pub mod analysis;
 pub mod budget;
 pub mod camera;
+pub mod error;
 pub mod film;
 pub mod geometry;
 #[cfg(feature = "highlight")]

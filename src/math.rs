@@ -273,7 +273,7 @@ pub fn sincos_turns(t: f32) -> (f32, f32) {
 /// `(sin x, cos x)` for |x| ≤ π/4, without range reduction: the minimax
 /// polynomials of Cephes' `sinf`/`cosf` on that interval (about 1 ulp of 1;
 /// tested in double precision). The concentric disk mapping
-/// ([`crate::material::concentric_disk`]) only needs this interval.
+/// ([`crate::sampler::concentric_disk`]) only needs this interval.
 #[inline(always)]
 pub fn sincos_quarter(x: f32) -> (f32, f32) {
     let z = x * x;

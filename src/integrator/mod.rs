@@ -1,7 +1,7 @@
 //! Unbiased path tracing of the rendering equation
 //! `L_o = L_e + ∫ L_i f_r cos θ dω`.
 //!
-//! Materials are seen only through [`Material::scatter`] (crate::material):
+//! Materials are seen only through [`Material::scatter`](crate::material::Material::scatter):
 //! an emitter, a Dirac delta, or a non-delta BSDF. At every non-delta vertex
 //! (Lambertian, checker, rough metal) the estimator combines two strategies
 //! by multiple importance sampling with the power heuristic (Veach 1997):
@@ -12,7 +12,7 @@
 //!   with its radiance times its share of the lobe, so that the light the
 //!   lobe sees is sampled most), a direction is sampled uniformly in its
 //!   cone, and a shadow ray tests visibility;
-//! * BSDF sampling: a direction sampled from the BSDF ([`Bsdf::sample`];
+//! * BSDF sampling: a direction sampled from the BSDF ([`Bsdf::sample`](crate::material::Bsdf::sample);
 //!   the Lambertian's cosine-distributed) continues the path; if it hits an
 //!   emitter, the emission is weighted against the light-sampling pdf of
 //!   that direction.

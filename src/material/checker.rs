@@ -9,13 +9,13 @@
 //! belongs to the cell above it; where the cells' indices sum to an even
 //! number the albedo is `even`, where odd `odd`.
 
+use crate::error::SceneError;
+use crate::error::check_unit_range;
 use crate::geometry::Color;
 #[cfg(feature = "checker")]
 use crate::geometry::Vec3;
 #[cfg(feature = "checker")]
 use crate::math;
-use crate::scene::SceneError;
-use crate::scene::builder::check_unit_range;
 
 /// A checkerboard of two Lambertian albedos.
 #[derive(Clone, Copy, Debug, PartialEq)]

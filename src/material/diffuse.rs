@@ -1,11 +1,11 @@
 //! The Lambertian reflector: `f = albedo / π`, sampled by the cosine.
 
 use super::{BsdfSample, Lobe};
+use crate::error::SceneError;
+use crate::error::check_unit_range;
 use crate::geometry::{Color, Vec3};
 use crate::math;
 use crate::sampler::concentric_disk;
-use crate::scene::SceneError;
-use crate::scene::builder::check_unit_range;
 
 /// Checks a Lambertian albedo (each channel in [0, 1]).
 pub(crate) fn validate(albedo: Color) -> Result<(), SceneError> {

@@ -3,11 +3,11 @@
 
 #[cfg(feature = "glass")]
 use super::reflect;
+use crate::error::SceneError;
 #[cfg(feature = "glass")]
 use crate::geometry::Vec3;
 #[cfg(feature = "glass")]
 use crate::math;
-use crate::scene::SceneError;
 
 /// Checks an index of refraction (finite, > 0), or refuses the material in
 /// a build without the `glass` feature.

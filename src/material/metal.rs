@@ -21,6 +21,8 @@
 
 #[cfg(feature = "metal")]
 use super::{BsdfSample, Lobe, reflect};
+use crate::error::SceneError;
+use crate::error::check_unit_range;
 use crate::geometry::Color;
 #[cfg(feature = "metal")]
 use crate::geometry::Vec3;
@@ -28,8 +30,6 @@ use crate::geometry::Vec3;
 use crate::math;
 #[cfg(feature = "metal")]
 use crate::sampler::concentric_disk;
-use crate::scene::SceneError;
-use crate::scene::builder::check_unit_range;
 
 /// Smallest GGX width α the scene format accepts.
 pub const MIN_ALPHA: f32 = 0.001;

@@ -1,11 +1,11 @@
 //! The perfect mirror: a Dirac delta reflector with a tint (feature
 //! `mirror`; [`reflect`] is also built for the glass and the metal).
 
+use crate::error::SceneError;
+use crate::error::check_unit_range;
 use crate::geometry::Color;
 #[cfg(any(feature = "mirror", feature = "glass", feature = "metal"))]
 use crate::geometry::Vec3;
-use crate::scene::SceneError;
-use crate::scene::builder::check_unit_range;
 
 /// Checks a mirror's tint (each channel in [0, 1]), or refuses the
 /// material in a build without the `mirror` feature.

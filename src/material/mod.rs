@@ -29,9 +29,9 @@ pub use metal::Metal;
 #[cfg(any(feature = "mirror", feature = "glass", feature = "metal"))]
 pub use mirror::reflect;
 
+use crate::error::SceneError;
 use crate::geometry::{Color, Hit, Vec3};
 use crate::sampler::SampleStream;
-use crate::scene::SceneError;
 
 /// A surface material (the `material` statement of docs/scene-format.md).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -7,7 +7,8 @@ pub mod builder;
 pub mod bvh;
 pub mod query;
 
-pub use builder::{MaterialId, SceneBuilder, SceneError};
+pub use crate::error::SceneError;
+pub use builder::{MaterialId, SceneBuilder};
 pub use query::SceneView;
 
 use crate::analysis::{Analysis, Slabs};
