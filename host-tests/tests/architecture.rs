@@ -14,6 +14,28 @@ use std::path::{Path, PathBuf};
 /// The longest a source file of the core may be.
 const MAX_LINES: usize = 1000;
 
+/// The core's top-level modules, bottom up: each may import only those
+/// before it (the order of docs/architecture.md and the crate docs).
+const LAYERS: [&str; 17] = [
+    "math",
+    "sampler",
+    "geometry",
+    "camera",
+    "error",
+    "light",
+    "material",
+    "analysis",
+    "scene",
+    "parse",
+    "stats",
+    "highlight",
+    "integrator",
+    "film",
+    "render",
+    "budget",
+    "multicore",
+];
+
 fn src_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../src")
 }
@@ -194,6 +216,26 @@ fn the_core_imports_in_one_direction() {
             "import circle among the core's modules:\n{}",
             steps.join("\n")
         );
+    }
+}
+
+#[test]
+fn each_module_imports_only_the_layers_below_it() {
+    let (graph, modules) = module_graph();
+    let rank = |m: &str| LAYERS.iter().position(|l| *l == m);
+    for m in &modules {
+        assert!(
+            rank(m).is_some(),
+            "module {m} is not in LAYERS (place it, and in docs/architecture.md)"
+        );
+    }
+    for (a, edges) in &graph {
+        for (b, files) in edges {
+            assert!(
+                rank(b) < rank(a),
+                "{a} imports {b}, which is not below it ({files:?}); LAYERS: {LAYERS:?}"
+            );
+        }
     }
 }
 
