@@ -35,11 +35,12 @@
 //! Roulette on the throughput alone never ends a path whose throughput
 //! does not fall: one caught in total internal reflection inside glass, or
 //! in a closed box of albedo-1 mirrors. So from [`Options::deep_start`]
-//! bounces on, the survival is also at most [`Options::deep_survival`] per
-//! bounce (and the survivors' weight is divided by it, as for any roulette):
-//! every path ends with probability 1 and the estimate stays unbiased. The
-//! hard depth cap ([`Options::max_depth`]) is only a safety net behind it:
-//! with the defaults a path reaches it with probability below 1e-13. The
+//! bounces on, a second, independent roulette on the depth alone keeps a
+//! path with probability [`Options::deep_survival`] per bounce (and divides
+//! the survivors' throughput by it): every path ends with probability 1
+//! and the estimate stays unbiased. The hard depth cap
+//! ([`Options::max_depth`]) is only a safety net behind it: with the
+//! defaults a path reaches it with probability below 1e-13. The
 //! paths it still ends are counted ([`Stats::truncated`]).
 //!
 //! Each path is an unbiased sample of its pixel. A pixel's mean stays
@@ -161,12 +162,12 @@ pub struct Options {
     /// 1/(MSE × time) of the settings compared (docs/bench.md, "Russian
     /// roulette").
     pub rr_gain: f32,
-    /// Bounces from which Russian roulette also ends a path with
-    /// probability at least `1 − deep_survival` per bounce, whatever its
-    /// throughput (see the module docs).
+    /// Bounces from which a second Russian roulette, on the depth alone,
+    /// ends a path with probability `1 − deep_survival` per bounce, whatever
+    /// its throughput (see the module docs).
     pub deep_start: u32,
-    /// The most a path may survive each bounce from [`Options::deep_start`]
-    /// on. Close to 1, so that the weight of a long path that finds light
+    /// The probability that a path survives the depth roulette at each
+    /// bounce from [`Options::deep_start`] on. Close to 1, so that the weight of a long path that finds light
     /// (`1 / deep_survival` per bounce) grows slowly: the estimate's
     /// variance stays finite wherever a path finds light more often than
     /// once in `1 / (1 − deep_survival)` bounces.

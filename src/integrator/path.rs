@@ -71,7 +71,13 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
     };
     // counted here and added to `stats` once per path (u64 additions are
     // four instructions each on a 32-bit core)
-    let (mut bounces, mut shadows, mut truncated) = (0u32, 0u32, 0u32);
+    let (mut bounces, mut shadows) = (0u32, 0u32);
+    // where the depth roulette, or else the cap, starts
+    let deep = if opts.deep_start < opts.max_depth {
+        opts.deep_start
+    } else {
+        opts.max_depth
+    };
     let mut depth = 0u32;
     // whether the path may no longer split at a glass vertex: it has split,
     // or met a non-delta vertex
@@ -348,12 +354,7 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
             }
             depth += 1;
             if depth >= opts.rr_start {
-                let mut p = thr.max_component() * rr_scale * opts.rr_gain;
-                if depth >= opts.deep_start {
-                    // a path this long may be caught where its throughput
-                    // never falls (total internal reflection, a mirror box)
-                    p = if p < 1.0 { p } else { 1.0 } * opts.deep_survival;
-                }
+                let p = thr.max_component() * rr_scale * opts.rr_gain;
                 if p < 1.0 {
                     if !(stream.next_f32() < p) {
                         break;
@@ -361,9 +362,19 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                     thr *= 1.0 / p;
                 }
             }
-            if depth >= opts.max_depth {
-                truncated += 1;
-                break;
+            // one test per bounce for both the depth roulette and the cap
+            if depth >= deep {
+                if depth >= opts.max_depth {
+                    stats.truncated += 1;
+                    break;
+                }
+                // a path this long may be caught where its throughput never
+                // falls (total internal reflection, a mirror box): a second,
+                // independent roulette on the depth alone
+                if !(stream.next_f32() < opts.deep_survival) {
+                    break;
+                }
+                thr *= 1.0 / opts.deep_survival;
             }
             from = hit.object;
             bounces += 1;
@@ -385,6 +396,5 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
     stats.paths += 1;
     stats.bounce_rays += u64::from(bounces);
     stats.shadow_rays += u64::from(shadows);
-    stats.truncated += u64::from(truncated);
     l
 }
