@@ -364,17 +364,10 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
             }
             // one test per bounce for both the depth roulette and the cap
             if depth >= deep {
-                if depth >= opts.max_depth {
-                    stats.truncated += 1;
-                    break;
+                match deep_roulette(depth, opts, stream, stats) {
+                    Some(w) => thr *= w,
+                    None => break,
                 }
-                // a path this long may be caught where its throughput never
-                // falls (total internal reflection, a mirror box): a second,
-                // independent roulette on the depth alone
-                if !(stream.next_f32() < opts.deep_survival) {
-                    break;
-                }
-                thr *= 1.0 / opts.deep_survival;
             }
             from = hit.object;
             bounces += 1;
@@ -397,4 +390,27 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
     stats.bounce_rays += u64::from(bounces);
     stats.shadow_rays += u64::from(shadows);
     l
+}
+
+/// The depth roulette and the cap, for a path at `depth` bounces (at least
+/// `deep_start` or `max_depth`): `None` ends the path (counted in
+/// `stats.truncated` where the cap ends it), else the survivor's weight
+/// `1 / deep_survival`. A path this long may be caught where its
+/// throughput never falls (total internal reflection, a mirror box), so it
+/// meets a second roulette, independent of the first, on the depth alone.
+/// Out of line and cold: almost no path gets here, and one copy serves
+/// every variant of the loop.
+#[cold]
+#[inline(never)]
+fn deep_roulette(
+    depth: u32,
+    opts: &Options,
+    stream: &mut SampleStream<'_>,
+    stats: &mut Stats,
+) -> Option<f32> {
+    if depth >= opts.max_depth {
+        stats.truncated += 1;
+        return None;
+    }
+    (stream.next_f32() < opts.deep_survival).then_some(1.0 / opts.deep_survival)
 }
