@@ -72,12 +72,6 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
     // counted here and added to `stats` once per path (u64 additions are
     // four instructions each on a 32-bit core)
     let (mut bounces, mut shadows) = (0u32, 0u32);
-    // where the depth roulette, or else the cap, starts
-    let deep = if opts.deep_start < opts.max_depth {
-        opts.deep_start
-    } else {
-        opts.max_depth
-    };
     let mut depth = 0u32;
     // whether the path may no longer split at a glass vertex: it has split,
     // or met a non-delta vertex
@@ -363,7 +357,7 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                 }
             }
             // one test per bounce for both the depth roulette and the cap
-            if depth >= deep {
+            if depth >= ctx.plan.deep {
                 match deep_roulette(depth, opts, stream, stats) {
                     Some(w) => thr *= w,
                     None => break,

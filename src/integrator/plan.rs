@@ -46,6 +46,9 @@ pub(crate) struct PathPlan<'a> {
     pub(super) one: Option<OneLight<'a>>,
     /// Windows of lights cut by a wall (empty with that skip off).
     pub(super) windows: &'a [Window],
+    /// The depth from which the depth roulette, or else the cap, acts:
+    /// the smaller of [`Options::deep_start`] and [`Options::max_depth`].
+    pub(super) deep: u32,
 }
 
 impl<'a> PathPlan<'a> {
@@ -77,6 +80,11 @@ impl<'a> PathPlan<'a> {
                 OneLight::first(scene, lights, windows)
             },
             windows,
+            deep: if opts.deep_start < opts.max_depth {
+                opts.deep_start
+            } else {
+                opts.max_depth
+            },
         }
     }
 }
