@@ -753,6 +753,13 @@ fn a_zero_albedo_world_shows_only_the_light() {
     assert!(out.stats.bounce_rays <= 3 * out.stats.paths);
 }
 
+/// A closed unit box of six albedo-1 mirrors, and a camera inside it.
+const MIRROR_BOX: &str = "material m mirror 1 1 1\n\
+    plane 0 0 0  1 0 0  m\nplane 1 0 0  -1 0 0  m\n\
+    plane 0 0 0  0 1 0  m\nplane 0 1 0  0 -1 0  m\n\
+    plane 0 0 0  0 0 1  m\nplane 0 0 1  0 0 -1  m\n";
+const MIRROR_BOX_CAMERA: &str = "camera 0.5 0.5 0.9  0.5 0.5 0  0 1 0  60\n";
+
 /// A closed box of six albedo-1 mirrors: Russian roulette on the
 /// throughput never fires (it stays 1), so only the depth roulette ends
 /// paths: from `deep_start` bounces on, each survives a bounce with
@@ -762,11 +769,7 @@ fn a_zero_albedo_world_shows_only_the_light() {
 /// (the old hard cap at 256 bounces gave about 0.6 here).
 #[test]
 fn a_closed_mirror_box_is_unbiased() {
-    let box6 = "material m mirror 1 1 1\n\
-                plane 0 0 0  1 0 0  m\nplane 1 0 0  -1 0 0  m\n\
-                plane 0 0 0  0 1 0  m\nplane 0 1 0  0 -1 0  m\n\
-                plane 0 0 0  0 0 1  m\nplane 0 0 1  0 0 -1  m\n";
-    let cam = "camera 0.5 0.5 0.9  0.5 0.5 0  0 1 0  60\n";
+    let (cam, box6) = (MIRROR_BOX_CAMERA, MIRROR_BOX);
     let o = Options::default();
     // no light: all black; the depth roulette ends every path, on average
     // 1 / (1 − deep_survival) bounces after deep_start, and the cap none
@@ -809,12 +812,8 @@ fn a_closed_mirror_box_is_unbiased() {
 /// between with probability `deep_survival`).
 #[test]
 fn the_depth_cap_counts_the_paths_it_ends() {
-    let text = "camera 0.5 0.5 0.9  0.5 0.5 0  0 1 0  60\n\
-                material m mirror 1 1 1\n\
-                plane 0 0 0  1 0 0  m\nplane 1 0 0  -1 0 0  m\n\
-                plane 0 0 0  0 1 0  m\nplane 0 1 0  0 -1 0  m\n\
-                plane 0 0 0  0 0 1  m\nplane 0 0 1  0 0 -1  m\n";
-    let scene = parse(text).unwrap();
+    let text = format!("{MIRROR_BOX_CAMERA}{MIRROR_BOX}");
+    let scene = parse(&text).unwrap();
     let mut o = Options::default();
     o.max_depth = o.deep_start + 4;
     let out = run_with(&scene, 8, 8, 16, 3, o);
