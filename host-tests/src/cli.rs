@@ -79,6 +79,13 @@ struct SmallptRenderArgs {
     /// with zero weight until the roulette); same expected image.
     #[arg(long)]
     cutoff: bool,
+    /// Hard cap on hits per path. Paths it ends are counted ("truncated" in
+    /// --json, a warning on stderr): their further light is lost. The
+    /// roulette (survival at most 0.999 per hit) makes the default cap
+    /// practically unreachable.
+    #[arg(long, value_name = "HITS", default_value_t = smallpt::MAX_DEPTH,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    max_depth: u32,
     /// Print one JSON line of figures at the end.
     #[arg(long)]
     json: bool,
@@ -594,12 +601,21 @@ fn cmd_smallpt_render(a: SmallptRenderArgs) -> Result<ExitCode, String> {
             spp: a.spp,
             seed: a.frame.seed,
             threads: a.frame.threads.map_or(0, |t| t as usize),
-            options: SmallptOptions { cutoff: a.cutoff },
+            options: SmallptOptions {
+                cutoff: a.cutoff,
+                max_depth: a.max_depth,
+            },
         },
     )?;
     out.image.save(&output, 1.0)?;
     if let Some(se) = &a.se {
         out.standard_error.save(se, 1.0)?;
+    }
+    if out.truncated > 0 {
+        eprintln!(
+            "micropt: warning: {} path(s) reached the cap of {} hits and were ended there; the light they would have gathered further is missing (the image is biased low)",
+            out.truncated, a.max_depth
+        );
     }
     if a.json {
         let v = serde_json::json!({
@@ -614,6 +630,8 @@ fn cmd_smallpt_render(a: SmallptRenderArgs) -> Result<ExitCode, String> {
             "seconds": out.seconds,
             "paths": out.paths,
             "rays": out.rays,
+            "max_depth": a.max_depth,
+            "truncated": out.truncated,
             "threads": out.threads,
             "paths_per_second": out.paths_per_second(),
             "rays_per_second": out.rays as f64 / out.seconds.max(1e-9),
@@ -639,7 +657,10 @@ fn cmd_smallpt_bench(a: SmallptBenchArgs) -> Result<ExitCode, String> {
             a.spp
         },
         seeds: a.seeds,
-        smallpt: SmallptOptions { cutoff: a.cutoff },
+        smallpt: SmallptOptions {
+            cutoff: a.cutoff,
+            ..SmallptOptions::default()
+        },
     };
     let machine = bench::machine_summary();
     let (runs, noise) = bench::vs_smallpt(&cfg, &mut |l| eprintln!("{l}"))?;

@@ -398,6 +398,55 @@ fn smallpt_renders_with_standard_errors_and_compares() {
 }
 
 #[test]
+fn smallpt_counts_paths_ended_by_the_depth_cap() {
+    // the camera inside a glass ball, along a chord that total internal
+    // reflection keeps for ever: the roulette ends every path (about 1,000
+    // hits); a cap of 8 hits ends every one and says so
+    let sc = tmp("inside-glass.scene");
+    std::fs::write(
+        &sc,
+        "camera 0 0.9 0   1 0.9 0   0 0 1   0.0001\n\
+         background 1 1 1\n\
+         material glass glass 1.5\n\
+         sphere 0 0 0 1 glass\n",
+    )
+    .unwrap();
+    let img = tmp("inside.pfm");
+    let args = |cap: Option<&'static str>| {
+        let mut a = vec![
+            "smallpt",
+            "render",
+            sc.to_str().unwrap(),
+            "--spp",
+            "4",
+            "--size",
+            "2x2",
+            "-o",
+            img.to_str().unwrap(),
+            "--json",
+        ];
+        if let Some(c) = cap {
+            a.extend(["--max-depth", c]);
+        }
+        a
+    };
+    let v = json_of(&args(None));
+    assert_eq!(v["truncated"], 0);
+    assert_eq!(v["max_depth"], 65536);
+    let out = run(&args(Some("8")));
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["truncated"], 16);
+    assert_eq!(v["rays"], 16 * 8);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("16 path(s) reached the cap of 8 hits"),
+        "{err}"
+    );
+    assert_clean_error(&run(&args(Some("0"))), "--max-depth");
+}
+
+#[test]
 fn smallpt_bad_inputs() {
     let s = scene("smallpt.scene");
     assert_clean_error(
