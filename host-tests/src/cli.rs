@@ -6,7 +6,7 @@ use micropt::budget::MAX_SPP;
 use micropt::{AdaptiveOptions, Budget, Options, Skip, Strategy};
 use micropt_host::bench;
 use micropt_host::image::{Image, OutputFormat};
-use micropt_host::metrics::{ZGroup, bias_z, compare};
+use micropt_host::metrics::{self, ZGroup, bias_z, compare};
 use micropt_host::render::{BudgetJob, MAX_THREADS, check_size, load_scene, render_budget};
 use micropt_host::smallpt::{self, SmallptJob, SmallptOptions, SmallptScene};
 use std::io::{IsTerminal, Write};
@@ -224,7 +224,9 @@ struct CompareArgs {
     max_rmse: Option<f64>,
     /// The image's per-pixel standard errors (PFM); with --reference-se,
     /// prints z-scores of the differences of pixel, row, block and image
-    /// means: whether image and reference differ by more than noise.
+    /// means: whether image and reference differ by more than noise. A
+    /// difference where both standard errors are 0 is an exact mismatch
+    /// (z infinite): counted, and the exit status is 1.
     #[arg(long, value_name = "PFM", requires = "reference_se")]
     se: Option<PathBuf>,
     /// The reference's per-pixel standard errors (PFM).
@@ -451,14 +453,10 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode, String> {
         "mse {:.6e}\nrmse {:.6e}\nrelmse {:.6e}\nmean_diff {:+.6e}",
         e.mse, e.rmse, e.rel_mse, e.mean_diff
     ))?;
+    let mut failed = false;
     if let (Some(se), Some(rse)) = (&a.se, &a.reference_se) {
-        let z = bias_z(
-            &img,
-            &Image::load_pfm(se)?,
-            &reference,
-            &Image::load_pfm(rse)?,
-            a.block,
-        )?;
+        let (img_se, ref_se) = (Image::load_pfm(se)?, Image::load_pfm(rse)?);
+        let z = bias_z(&img, &img_se, &reference, &ref_se, a.block)?;
         let ch = ["r", "g", "b"];
         let group = |name: &str, g: &ZGroup, unit: &str| {
             format!(
@@ -484,14 +482,38 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode, String> {
             group(&format!("{0}x{0} blocks", a.block), &z.blocks, "block"),
             group("pixels", &z.pixels, "pixel"),
         ))?;
-    }
-    match a.max_rmse {
-        Some(max) if e.rmse > max => {
-            eprintln!("micropt: rmse {:.6e} exceeds --max-rmse {max:e}", e.rmse);
-            Ok(ExitCode::from(1))
+        let n = z.pixels.exact_mismatches;
+        say(format!(
+            "exact mismatches: {n} (pixel channels where both standard errors are 0 and the values differ by more than rounding, {:e} relative)",
+            metrics::ROUNDING
+        ))?;
+        if n > 0 {
+            let (p, c) = z.pixels.worst;
+            let (x, y) = (p as u32 % img.width, p as u32 / img.width);
+            let v = |i: &Image| {
+                let q = i.get(x, y);
+                [q.x, q.y, q.z][c]
+            };
+            eprintln!(
+                "micropt: {n} exact mismatch(es): image and reference differ where neither has noise (z infinite), e.g. pixel ({x}, {y}) {}: {} against {}, both standard errors 0",
+                ch[c],
+                v(&img),
+                v(&reference)
+            );
+            failed = true;
         }
-        _ => Ok(ExitCode::SUCCESS),
     }
+    if let Some(max) = a.max_rmse
+        && e.rmse > max
+    {
+        eprintln!("micropt: rmse {:.6e} exceeds --max-rmse {max:e}", e.rmse);
+        failed = true;
+    }
+    Ok(if failed {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
 }
 
 fn cmd_bench(a: BenchArgs) -> Result<ExitCode, String> {

@@ -260,6 +260,48 @@ fn compare_reports_and_thresholds() {
     );
 }
 
+#[test]
+fn compare_fails_on_an_exact_mismatch() {
+    // one pixel (1, 1, 1) against (0, 0, 0), both standard errors 0: no
+    // noise explains the difference, so z is infinite and the check fails
+    let pfm = |name: &str, v: f32| {
+        let mut i = micropt_host::image::Image::new(1, 1);
+        i.pixels[0] = micropt::Color::new(v, v, v);
+        let p = tmp(name);
+        i.save(&p, 1.0).unwrap();
+        p
+    };
+    let (one, zero) = (pfm("one.pfm", 1.0), pfm("zero.pfm", 0.0));
+    let z = |a: &PathBuf, b: &PathBuf| {
+        run(&[
+            "compare",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--se",
+            zero.to_str().unwrap(),
+            "--reference-se",
+            zero.to_str().unwrap(),
+        ])
+    };
+    let out = z(&one, &zero);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    assert!(text.contains("mean_diff +1.0"), "{text}");
+    assert!(text.contains("z image: r +inf g +inf b +inf"), "{text}");
+    assert!(text.contains("exact mismatches: 3 "), "{text}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("3 exact mismatch(es)") && err.contains("pixel (0, 0) r: 1 against 0"),
+        "{err}"
+    );
+    // identical noise-free pixels agree: z 0, success
+    let out = z(&one, &one);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("z image: r +0.00 g +0.00 b +0.00"), "{text}");
+    assert!(text.contains("exact mismatches: 0 "), "{text}");
+}
+
 fn json_of(args: &[&str]) -> serde_json::Value {
     let out = run(args);
     assert!(
