@@ -6,7 +6,7 @@ use micropt::budget::MAX_SPP;
 use micropt::{AdaptiveOptions, Budget, Options, Skip, Strategy};
 use micropt_host::bench;
 use micropt_host::image::{Image, OutputFormat};
-use micropt_host::metrics::{ZGroup, bias_z, compare};
+use micropt_host::metrics::{self, ZGroup, bias_z, compare};
 use micropt_host::render::{BudgetJob, MAX_THREADS, check_size, load_scene, render_budget};
 use micropt_host::smallpt::{self, SmallptJob, SmallptOptions, SmallptScene};
 use std::io::{IsTerminal, Write};
@@ -79,6 +79,13 @@ struct SmallptRenderArgs {
     /// with zero weight until the roulette); same expected image.
     #[arg(long)]
     cutoff: bool,
+    /// Hard cap on hits per path. Paths it ends are counted ("truncated" in
+    /// --json, a warning on stderr): their further light is lost. The
+    /// roulette (survival at most 0.999 per hit) makes the default cap
+    /// practically unreachable.
+    #[arg(long, value_name = "HITS", default_value_t = smallpt::MAX_DEPTH,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    max_depth: u32,
     /// Print one JSON line of figures at the end.
     #[arg(long)]
     json: bool,
@@ -217,7 +224,9 @@ struct CompareArgs {
     max_rmse: Option<f64>,
     /// The image's per-pixel standard errors (PFM); with --reference-se,
     /// prints z-scores of the differences of pixel, row, block and image
-    /// means: whether image and reference differ by more than noise.
+    /// means: whether image and reference differ by more than noise. A
+    /// difference where both standard errors are 0 is an exact mismatch
+    /// (z infinite): counted, and the exit status is 1.
     #[arg(long, value_name = "PFM", requires = "reference_se")]
     se: Option<PathBuf>,
     /// The reference's per-pixel standard errors (PFM).
@@ -453,14 +462,10 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode, String> {
         "mse {:.6e}\nrmse {:.6e}\nrelmse {:.6e}\nmean_diff {:+.6e}",
         e.mse, e.rmse, e.rel_mse, e.mean_diff
     ))?;
+    let mut failed = false;
     if let (Some(se), Some(rse)) = (&a.se, &a.reference_se) {
-        let z = bias_z(
-            &img,
-            &Image::load_pfm(se)?,
-            &reference,
-            &Image::load_pfm(rse)?,
-            a.block,
-        )?;
+        let (img_se, ref_se) = (Image::load_pfm(se)?, Image::load_pfm(rse)?);
+        let z = bias_z(&img, &img_se, &reference, &ref_se, a.block)?;
         let ch = ["r", "g", "b"];
         let group = |name: &str, g: &ZGroup, unit: &str| {
             format!(
@@ -486,14 +491,38 @@ fn cmd_compare(a: CompareArgs) -> Result<ExitCode, String> {
             group(&format!("{0}x{0} blocks", a.block), &z.blocks, "block"),
             group("pixels", &z.pixels, "pixel"),
         ))?;
-    }
-    match a.max_rmse {
-        Some(max) if e.rmse > max => {
-            eprintln!("micropt: rmse {:.6e} exceeds --max-rmse {max:e}", e.rmse);
-            Ok(ExitCode::from(1))
+        let n = z.pixels.exact_mismatches;
+        say(format!(
+            "exact mismatches: {n} (pixel channels where both standard errors are 0 and the values differ by more than rounding, {:e} relative)",
+            metrics::ROUNDING
+        ))?;
+        if n > 0 {
+            let (p, c) = z.pixels.worst;
+            let (x, y) = (p as u32 % img.width, p as u32 / img.width);
+            let v = |i: &Image| {
+                let q = i.get(x, y);
+                [q.x, q.y, q.z][c]
+            };
+            eprintln!(
+                "micropt: {n} exact mismatch(es): image and reference differ where neither has noise (z infinite), e.g. pixel ({x}, {y}) {}: {} against {}, both standard errors 0",
+                ch[c],
+                v(&img),
+                v(&reference)
+            );
+            failed = true;
         }
-        _ => Ok(ExitCode::SUCCESS),
     }
+    if let Some(max) = a.max_rmse
+        && e.rmse > max
+    {
+        eprintln!("micropt: rmse {:.6e} exceeds --max-rmse {max:e}", e.rmse);
+        failed = true;
+    }
+    Ok(if failed {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
 }
 
 fn cmd_bench(a: BenchArgs) -> Result<ExitCode, String> {
@@ -603,12 +632,21 @@ fn cmd_smallpt_render(a: SmallptRenderArgs) -> Result<ExitCode, String> {
             spp: a.spp,
             seed: a.frame.seed,
             threads: a.frame.threads.map_or(0, |t| t as usize),
-            options: SmallptOptions { cutoff: a.cutoff },
+            options: SmallptOptions {
+                cutoff: a.cutoff,
+                max_depth: a.max_depth,
+            },
         },
     )?;
     out.image.save(&output, 1.0)?;
     if let Some(se) = &a.se {
         out.standard_error.save(se, 1.0)?;
+    }
+    if out.truncated > 0 {
+        eprintln!(
+            "micropt: warning: {} path(s) reached the cap of {} hits and were ended there; the light they would have gathered further is missing (the image is biased low)",
+            out.truncated, a.max_depth
+        );
     }
     if a.json {
         let v = serde_json::json!({
@@ -623,6 +661,8 @@ fn cmd_smallpt_render(a: SmallptRenderArgs) -> Result<ExitCode, String> {
             "seconds": out.seconds,
             "paths": out.paths,
             "rays": out.rays,
+            "max_depth": a.max_depth,
+            "truncated": out.truncated,
             "threads": out.threads,
             "paths_per_second": out.paths_per_second(),
             "rays_per_second": out.rays as f64 / out.seconds.max(1e-9),
@@ -648,7 +688,10 @@ fn cmd_smallpt_bench(a: SmallptBenchArgs) -> Result<ExitCode, String> {
             a.spp
         },
         seeds: a.seeds,
-        smallpt: SmallptOptions { cutoff: a.cutoff },
+        smallpt: SmallptOptions {
+            cutoff: a.cutoff,
+            ..SmallptOptions::default()
+        },
     };
     let machine = bench::machine_summary();
     let (runs, noise) = bench::vs_smallpt(&cfg, &mut |l| eprintln!("{l}"))?;

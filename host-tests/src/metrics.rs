@@ -41,17 +41,35 @@ pub fn compare(img: &Image, reference: &Image) -> Result<Errors, String> {
     })
 }
 
+/// The relative difference up to which two noise-free values count as
+/// equal: a mean of many samples that are all the same number is that
+/// number only up to the rounding of its sum. A Mitsuba reference's
+/// background (an f32 sum of 65,536 equal samples) is off the exact value
+/// by up to 2.1e-5 relative, micropt's by an f32 ulp (1.2e-7); this is 5
+/// times the larger, far below a visible error (1/255 is 3.9e-3).
+pub const ROUNDING: f64 = 1e-4;
+
 /// z-scores of one grouping of the pixels (per group and channel: the mean
 /// difference over its standard error).
+///
+/// Where both images are noise-free (every standard error of the group
+/// zero), equal values give z = 0 and are not counted, while a difference
+/// is certain, not noise: z = ±∞, counted in `count` and in
+/// `exact_mismatches`, and `chi2_per_dof` and `max_abs_z` become ∞. Equal
+/// means equal up to [`ROUNDING`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ZGroup {
-    /// Groups × 3 channels that have a non-zero standard error.
+    /// Groups × 3 channels that have a non-zero standard error or an exact
+    /// mismatch.
     pub count: usize,
+    /// Groups × channels whose standard errors are all zero and whose
+    /// means differ by more than [`ROUNDING`]: z = ±∞.
+    pub exact_mismatches: usize,
     /// Mean of z²: near 1 when the differences are noise (± √(2/count)
     /// for independent values; the three channels of a group share their
-    /// paths, so rather ± √(6/count)).
+    /// paths, so rather ± √(6/count)); ∞ with any exact mismatch.
     pub chi2_per_dof: f64,
-    /// Largest |z|.
+    /// Largest |z| (∞ with any exact mismatch).
     pub max_abs_z: f64,
     /// The group (row-major index) and channel of the largest |z|.
     pub worst: (usize, usize),
@@ -67,7 +85,10 @@ pub struct BiasReport {
     pub expected_mse: f64,
     /// z of the whole image's mean difference, per channel.
     pub image_z: [f64; 3],
-    /// One group per pixel.
+    /// One group per pixel. Its `exact_mismatches` counts every pixel
+    /// channel where both standard errors are zero and the values differ
+    /// (by more than [`ROUNDING`]),
+    /// which a row or block with noise elsewhere dilutes into a finite z.
     pub pixels: ZGroup,
     /// One group per row.
     pub rows: ZGroup,
@@ -88,6 +109,8 @@ fn group_z(
 ) -> (ZGroup, Vec<[f64; 3]>) {
     let mut d = vec![[0.0f64; 3]; n];
     let mut v = vec![[0.0f64; 3]; n];
+    // the sum of max(|image|, |reference|): the scale of the rounding
+    let mut m = vec![[0.0f64; 3]; n];
     for y in 0..img.height {
         for x in 0..img.width {
             let g = group(x, y);
@@ -107,27 +130,34 @@ fn group_z(
             {
                 d[g][c] += f64::from(a) - f64::from(r);
                 v[g][c] += f64::from(sa).powi(2) + f64::from(sr).powi(2);
+                m[g][c] += f64::from(a.abs().max(r.abs()));
             }
         }
     }
     let mut z = vec![[0.0f64; 3]; n];
     let mut out = ZGroup {
         count: 0,
+        exact_mismatches: 0,
         chi2_per_dof: 0.0,
         max_abs_z: 0.0,
         worst: (0, 0),
     };
     for g in 0..n {
         for c in 0..3 {
-            if v[g][c] > 0.0 {
-                let zz = d[g][c] / v[g][c].sqrt();
-                z[g][c] = zz;
-                out.count += 1;
-                out.chi2_per_dof += zz * zz;
-                if zz.abs() > out.max_abs_z {
-                    out.max_abs_z = zz.abs();
-                    out.worst = (g, c);
-                }
+            let zz = if v[g][c] > 0.0 {
+                d[g][c] / v[g][c].sqrt()
+            } else if d[g][c].abs() > ROUNDING * m[g][c] || d[g][c].is_nan() {
+                out.exact_mismatches += 1;
+                f64::INFINITY.copysign(d[g][c])
+            } else {
+                continue;
+            };
+            z[g][c] = zz;
+            out.count += 1;
+            out.chi2_per_dof += zz * zz;
+            if zz.abs() > out.max_abs_z {
+                out.max_abs_z = zz.abs();
+                out.worst = (g, c);
             }
         }
     }
@@ -271,5 +301,50 @@ mod tests {
         assert!(close(z.blocks.max_abs_z, want(64.0)), "{z:?}");
         assert!(bias_z(&img, &se, &flat(8, 8, 0.0), &se, 8).is_err());
         assert!(bias_z(&img, &se, &reference, &se, 0).is_err());
+    }
+
+    #[test]
+    fn a_difference_without_noise_is_an_exact_mismatch() {
+        // one pixel (1, 1, 1) against (0, 0, 0), both standard errors 0:
+        // no noise can explain the difference, so z is infinite
+        let (one, zero) = (flat(1, 1, 1.0), flat(1, 1, 0.0));
+        let z = bias_z(&one, &zero, &zero, &zero, 8).unwrap();
+        for g in [z.pixels, z.rows, z.blocks] {
+            assert_eq!((g.count, g.exact_mismatches), (3, 3), "{z:?}");
+            assert_eq!(g.max_abs_z, f64::INFINITY, "{z:?}");
+            assert_eq!(g.chi2_per_dof, f64::INFINITY, "{z:?}");
+        }
+        assert_eq!(z.image_z, [f64::INFINITY; 3]);
+        // the sign is the difference's
+        let z = bias_z(&zero, &zero, &one, &zero, 8).unwrap();
+        assert_eq!(z.image_z, [f64::NEG_INFINITY; 3]);
+        // identical noise-free pixels agree exactly: z = 0, not counted
+        let z = bias_z(&one, &zero, &one, &zero, 8).unwrap();
+        assert_eq!((z.pixels.count, z.pixels.exact_mismatches), (0, 0));
+        assert_eq!((z.pixels.max_abs_z, z.image_z), (0.0, [0.0; 3]));
+        // so do ones that differ by the rounding of a sum of equal samples
+        // (5e-5 relative), not ones that differ by 2e-4
+        let z = bias_z(&flat(1, 1, 1.00005), &zero, &one, &zero, 8).unwrap();
+        assert_eq!((z.pixels.exact_mismatches, z.pixels.max_abs_z), (0, 0.0));
+        let z = bias_z(&flat(1, 1, 1.0002), &zero, &one, &zero, 8).unwrap();
+        assert_eq!(z.pixels.exact_mismatches, 3);
+        // one noise-free pixel off by 1e-3 among noisy ones: rows, blocks
+        // and the image mean dilute it into a small finite z, the pixel
+        // group names it
+        let (img, mut reference, mut se) =
+            (flat(16, 16, 0.5), flat(16, 16, 0.5), flat(16, 16, 0.1));
+        reference.pixels[17] = Color::new(0.5, 0.501, 0.5);
+        se.pixels[17] = Color::new(0.1, 0.0, 0.1);
+        let z = bias_z(&img, &se, &reference, &se, 8).unwrap();
+        assert_eq!(z.pixels.exact_mismatches, 1, "{z:?}");
+        assert_eq!(
+            (z.pixels.worst, z.pixels.max_abs_z),
+            ((17, 1), f64::INFINITY)
+        );
+        assert_eq!(z.rows.exact_mismatches + z.blocks.exact_mismatches, 0);
+        assert!(
+            z.rows.max_abs_z < 0.01 && z.image_z[1].abs() < 0.01,
+            "{z:?}"
+        );
     }
 }

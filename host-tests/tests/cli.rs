@@ -261,6 +261,48 @@ fn compare_reports_and_thresholds() {
     );
 }
 
+#[test]
+fn compare_fails_on_an_exact_mismatch() {
+    // one pixel (1, 1, 1) against (0, 0, 0), both standard errors 0: no
+    // noise explains the difference, so z is infinite and the check fails
+    let pfm = |name: &str, v: f32| {
+        let mut i = micropt_host::image::Image::new(1, 1);
+        i.pixels[0] = micropt::Color::new(v, v, v);
+        let p = tmp(name);
+        i.save(&p, 1.0).unwrap();
+        p
+    };
+    let (one, zero) = (pfm("one.pfm", 1.0), pfm("zero.pfm", 0.0));
+    let z = |a: &PathBuf, b: &PathBuf| {
+        run(&[
+            "compare",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--se",
+            zero.to_str().unwrap(),
+            "--reference-se",
+            zero.to_str().unwrap(),
+        ])
+    };
+    let out = z(&one, &zero);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    assert!(text.contains("mean_diff +1.0"), "{text}");
+    assert!(text.contains("z image: r +inf g +inf b +inf"), "{text}");
+    assert!(text.contains("exact mismatches: 3 "), "{text}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("3 exact mismatch(es)") && err.contains("pixel (0, 0) r: 1 against 0"),
+        "{err}"
+    );
+    // identical noise-free pixels agree: z 0, success
+    let out = z(&one, &one);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("z image: r +0.00 g +0.00 b +0.00"), "{text}");
+    assert!(text.contains("exact mismatches: 0 "), "{text}");
+}
+
 fn json_of(args: &[&str]) -> serde_json::Value {
     let out = run(args);
     assert!(
@@ -396,6 +438,55 @@ fn smallpt_renders_with_standard_errors_and_compares() {
     // a standard-error map of another size is refused
     let r = micropt_host::reference::data_dir().join("smallpt.se.pfm");
     assert_clean_error(&compare_with(r.to_str().unwrap()), "size mismatch");
+}
+
+#[test]
+fn smallpt_counts_paths_ended_by_the_depth_cap() {
+    // the camera inside a glass ball, along a chord that total internal
+    // reflection keeps for ever: the roulette ends every path (about 1,000
+    // hits); a cap of 8 hits ends every one and says so
+    let sc = tmp("inside-glass.scene");
+    std::fs::write(
+        &sc,
+        "camera 0 0.9 0   1 0.9 0   0 0 1   0.0001\n\
+         background 1 1 1\n\
+         material glass glass 1.5\n\
+         sphere 0 0 0 1 glass\n",
+    )
+    .unwrap();
+    let img = tmp("inside.pfm");
+    let args = |cap: Option<&'static str>| {
+        let mut a = vec![
+            "smallpt",
+            "render",
+            sc.to_str().unwrap(),
+            "--spp",
+            "4",
+            "--size",
+            "2x2",
+            "-o",
+            img.to_str().unwrap(),
+            "--json",
+        ];
+        if let Some(c) = cap {
+            a.extend(["--max-depth", c]);
+        }
+        a
+    };
+    let v = json_of(&args(None));
+    assert_eq!(v["truncated"], 0);
+    assert_eq!(v["max_depth"], 65536);
+    let out = run(&args(Some("8")));
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["truncated"], 16);
+    assert_eq!(v["rays"], 16 * 8);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("16 path(s) reached the cap of 8 hits"),
+        "{err}"
+    );
+    assert_clean_error(&run(&args(Some("0"))), "--max-depth");
 }
 
 #[test]
