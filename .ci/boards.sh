@@ -7,8 +7,13 @@
 # directory. They share one target directory. Nothing runs: there is no
 # board here (docs/boards.md says what QEMU verifies instead). Per board:
 # rustfmt, clippy (-D warnings), the release build (--locked: the committed
-# Cargo.lock), and its flash and RAM from the ELF's section headers.
-# Needs the three rustup targets (.ci/run adds them) and the crates.io index.
+# Cargo.lock), its flash and RAM from the ELF's section headers, and which
+# f32 routines it links, from its symbol and line tables (.ci/floats.py):
+# on the Pico 2 none (the FPU), on the Pico and the ESP32-C3 micropt's own
+# soft float (bit-exact with the host), never a boot-ROM or mask-ROM routine
+# (the RP2040's flush subnormals to zero; the C3's are not checked here).
+# Needs the three rustup targets (.ci/run adds them), the crates.io index,
+# python3 and readelf.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export CARGO_TARGET_DIR="$PWD/target/boards"
@@ -42,9 +47,13 @@ elf_size() {
         "$2" "$text" "$data" "$bss" "$((text + data))" "$((data + bss))"
 }
 
-for board in pico2:thumbv8m.main-none-eabihf pico:thumbv6m-none-eabi esp32c3:riscv32imc-unknown-none-elf; do
-    name=${board%%:*}
-    target=${board#*:}
+# board:target:float routines (.ci/floats.py):arch:ROM address range
+BOARDS="pico2:thumbv8m.main-none-eabihf:fpu:arm:0x00000000-0x00008000
+pico:thumbv6m-none-eabi:micropt:arm:0x00000000-0x00004000
+esp32c3:riscv32imc-unknown-none-elf:micropt:riscv:0x40000000-0x40060000"
+
+for board in $BOARDS; do
+    IFS=: read -r name target floats arch rom <<<"$board"
     bstep "$name ($target): fmt, clippy, build"
     (
         cd "examples/boards/$name"
@@ -52,7 +61,10 @@ for board in pico2:thumbv8m.main-none-eabihf pico:thumbv6m-none-eabi esp32c3:ris
         cargo clippy --release --locked -- -D warnings
         cargo build --release --locked
     )
-    elf_size "$CARGO_TARGET_DIR/$target/release/micropt-$name" "$name"
+    elf="$CARGO_TARGET_DIR/$target/release/micropt-$name"
+    elf_size "$elf" "$name"
+    echo "$name: f32 routines linked (address, size, where, whose):"
+    python3 .ci/floats.py "$elf" "$floats" --arch "$arch" --rom "$rom"
 done
 
 bstep "boards done"

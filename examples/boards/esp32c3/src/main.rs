@@ -10,8 +10,12 @@
 //! the final image is the host's
 //! `micropt render scenes/cornell.scene --size 240x240 --spp 16 --seed 0`
 //! (the same image as the STM32F405 example's). The C3 has no FPU: every
-//! float operation is a compiler-builtins routine, so a frame is many times
-//! slower than on an M4F (docs/boards.md); a `Budget::Deadline(µs)` caps it
+//! f32 add, subtract, multiply, divide, compare and int-to-float conversion
+//! is micropt's correctly rounded routine (`micropt::math::soft`, exported
+//! under the libgcc names by `examples/board/softfloat.rs`), not the chip's
+//! mask-ROM libgcc, which esp-hal's linker script would bind them to
+//! (`build.rs` says how that is kept off). So a frame is many times slower
+//! than on an M4F (docs/boards.md); a `Budget::Deadline(µs)` caps it
 //! instead, read from esp-hal's microsecond clock.
 //!
 //! Wiring (SPI2 on its IO MUX pins; any ESP32-C3 board, e.g. an
@@ -40,6 +44,11 @@
 //! ```
 #![no_std]
 #![no_main]
+
+// micropt's soft-float routines under the runtime's names (same bits as the
+// host; build.rs keeps the ROM's libgcc table from overriding them)
+#[path = "../../../board/softfloat.rs"]
+mod softfloat;
 
 use embedded_hal_bus::spi::ExclusiveDevice;
 use esp_hal::clock::CpuClock;
