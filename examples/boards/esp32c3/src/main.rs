@@ -101,11 +101,13 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
 fn main() -> ! {
     let p = esp_hal::init(esp_hal::Config::default().with_cpu_clock(CpuClock::max()));
     let _backlight = Output::new(p.GPIO3, Level::High, OutputConfig::default());
+    // mode 3: CS-less 240×240 modules only answer in it, and it works with
+    // CS wired too
     let Ok(spi) = Spi::new(
         p.SPI2,
         Config::default()
             .with_frequency(Rate::from_mhz(40))
-            .with_mode(Mode::_0),
+            .with_mode(Mode::_3),
     ) else {
         halt()
     };
