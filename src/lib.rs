@@ -27,8 +27,8 @@
 //! [`render`], [`budget`] (fixed budgets, progressive and adaptive),
 //! `highlight` (lights seen in mirror balls, sampled from the light's side;
 //! feature `highlight`),
-//! [`multicore`] (one budgeted render shared between cores; on targets with
-//! atomic read-modify-write).
+//! [`multicore`] (one budgeted render shared between cores; its atomic work
+//! queues on targets with atomic read-modify-write).
 
 #![no_std]
 #![cfg_attr(
@@ -54,7 +54,6 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod math;
-#[cfg(target_has_atomic = "ptr")]
 pub mod multicore;
 #[cfg(feature = "parser")]
 pub mod parse;
