@@ -135,9 +135,8 @@ static PANEL: Mutex<RefCell<Option<Progress<Panel>>>> = Mutex::new(RefCell::new(
 static QUEUE: LockedQueue = LockedQueue::new(2);
 /// The queue when core 1 did not start.
 static QUEUE_ALONE: LockedQueue = LockedQueue::new(1);
-/// Core 1's stack: 16 KiB (its tile accumulators are static). The render's
-/// deepest stack on an Armv6-M core in QEMU was 4,160 bytes
-/// (`firmware/expected/cortex-m0.size`, cornell).
+/// Core 1's stack: 16 KiB, its tile accumulators static (the render's
+/// stack depth measured in QEMU: docs/boards.md).
 static CORE1_STACK: Stack<4096> = Stack::new();
 /// Set by core 1 if it could not draw to the panel.
 static CORE1_FAILED: AtomicBool = AtomicBool::new(false);

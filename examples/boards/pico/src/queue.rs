@@ -3,8 +3,7 @@
 //! queues do not exist there, so this one keeps its counters under the
 //! critical section, which rp2040-hal (`critical-section-impl`) implements
 //! with SIO hardware spinlock 31 and interrupts masked: one core at a time,
-//! whichever core asks. A take is a few instructions under the lock against
-//! seconds of rendering per tile, so the lock costs nothing measurable.
+//! whichever core asks. The lock is held for a few instructions per tile.
 //!
 //! The queue hands out each pass's tiles `0, 1, 2, ...` once each over both
 //! cores, as `micropt::multicore::AtomicQueue` does; the image does not

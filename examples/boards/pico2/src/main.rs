@@ -125,10 +125,8 @@ static PANEL: Mutex<RefCell<Option<Progress<Panel>>>> = Mutex::new(RefCell::new(
 static QUEUE: AtomicQueue = AtomicQueue::new(2);
 /// The queue when core 1 did not start.
 static QUEUE_ALONE: AtomicQueue = AtomicQueue::new(1);
-/// Core 1's stack: 16 KiB, its tile accumulators static. Measured in QEMU
-/// (docs/firmware.md): the render's deepest stack on a Cortex-M33 was
-/// 3,840 bytes (cornell, one core); core 1 of the two-core AN521 firmware
-/// used 12,160 bytes, its 5 KiB of accumulators on its stack.
+/// Core 1's stack: 16 KiB, its tile accumulators static (the render's
+/// stack depth measured in QEMU: docs/boards.md).
 static CORE1_STACK: Stack<4096> = Stack::new();
 /// Set by core 1 if it could not draw to the panel.
 static CORE1_FAILED: AtomicBool = AtomicBool::new(false);
