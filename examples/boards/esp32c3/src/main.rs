@@ -3,11 +3,11 @@
 //! by tile, straight to the panel through `mipidsi`.
 //!
 //! The core's single-core budget executor (`micropt::budget::render_budget`)
-//! keeps one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB, static)
-//! and draws every tile twice, tone-mapped, dithered, with one window write:
-//! first a 1-sample preview of the whole image, then each tile refined to
-//! its share of [`BUDGET`] with adaptive allocation. With `Budget::Spp(16)`
-//! the final image is the host's
+//! keeps one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB, on the
+//! stack) and draws every tile twice, tone-mapped, dithered, with one window
+//! write: first a 1-sample preview of the whole image, then each tile
+//! refined to its share of [`BUDGET`] with adaptive allocation. With
+//! `Budget::Spp(16)` the final image is the host's
 //! `micropt render scenes/cornell.scene --size 240x240 --spp 16 --seed 0`
 //! (the same image as the STM32F405 example's). The C3 has no FPU: every
 //! f32 add, subtract, multiply, divide, compare and int-to-float conversion
