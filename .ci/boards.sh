@@ -7,8 +7,20 @@
 # directory. They share one target directory. Nothing runs: there is no
 # board here (docs/boards.md says what QEMU verifies instead). Per board:
 # rustfmt, clippy (-D warnings), the release build (--locked: the committed
-# Cargo.lock), and its flash and RAM from the ELF's section headers.
-# Needs the three rustup targets (.ci/run adds them) and the crates.io index.
+# Cargo.lock), its flash and RAM from the ELF's section headers, and which
+# f32 routines it links, from its symbol and line tables (.ci/floats.py):
+# on the Pico 2 none (the FPU), on the Pico and the ESP32-C3 micropt's own
+# soft float (bit-exact with the host), never a boot-ROM or mask-ROM routine
+# (the RP2040's flush subnormals to zero; the C3's are not checked here).
+# Then what a board would reject at boot: the RP2040's 256-byte .boot2 at
+# 0x10000000 with the CRC32 the boot ROM checks, the RP2350's IMAGE_DEF block
+# in the first 4 KiB of flash, a UF2 for both Picos (.ci/uf2.py, checked
+# block by block against the ELF), and the ESP32-C3's flash image (esptool's
+# elf2image, as espflash makes it; image-info checks its header, chip id,
+# checksum, SHA-256 and application descriptor). The images are left in
+# target/boards/.
+# Needs the three rustup targets and esptool (.ci/run installs them), the
+# crates.io index, python3 and readelf.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export CARGO_TARGET_DIR="$PWD/target/boards"
@@ -42,9 +54,53 @@ elf_size() {
         "$2" "$text" "$data" "$bss" "$((text + data))" "$((data + bss))"
 }
 
-for board in pico2:thumbv8m.main-none-eabihf pico:thumbv6m-none-eabi esp32c3:riscv32imc-unknown-none-elf; do
-    name=${board%%:*}
-    target=${board#*:}
+# The boot block and the flash image of board $1's ELF $2 (fails if either
+# is missing or malformed).
+boot_image() {
+    local out="$CARGO_TARGET_DIR/micropt-$1"
+    case "$1" in
+    pico)
+        readelf -SW "$2" | grep -E ' \.boot2 ' # the section
+        python3 .ci/uf2.py boot2 "$2"
+        python3 .ci/uf2.py convert "$2" "$out.uf2" rp2040
+        ;;
+    pico2)
+        readelf -SW "$2" | grep -E ' \.start_block ' # the section holding it
+        python3 .ci/uf2.py imagedef "$2"
+        python3 .ci/uf2.py convert "$2" "$out.uf2" rp2350-arm-s
+        ;;
+    esp32c3)
+        rm -f "$out.bin"
+        # espflash's defaults: DIO, 4 MB (the flash of most C3 boards)
+        python3 -m esptool --chip esp32c3 elf2image --flash-mode dio --flash-size 4MB \
+            --output "$out.bin" "$2" >/dev/null
+        local info
+        info=$(python3 -m esptool --chip esp32c3 image-info "$out.bin")
+        local want
+        for want in 'Chip ID: 5 \(ESP32-C3\)' 'Checksum: 0x[0-9a-f]+ \(valid\)' \
+            'Validation hash: [0-9a-f]{64} \(valid\)' 'Project name: micropt-esp32c3' \
+            'IROM' 'DROM'; do
+            if ! grep -Eq "$want" <<<"$info"; then
+                echo "error: $out.bin: image-info does not show '$want':" >&2
+                echo "$info" >&2
+                return 1
+            fi
+        done
+        echo "$out.bin: $(stat -c %s "$out.bin") bytes; chip id 5, checksum and SHA-256 valid, app descriptor micropt-esp32c3"
+        ;;
+    esac
+}
+
+bstep "UF2 and boot-block checker: rejects broken input"
+python3 .ci/uf2.py selftest
+
+# board:target:float routines (.ci/floats.py):arch:ROM address range
+BOARDS="pico2:thumbv8m.main-none-eabihf:fpu:arm:0x00000000-0x00008000
+pico:thumbv6m-none-eabi:micropt:arm:0x00000000-0x00004000
+esp32c3:riscv32imc-unknown-none-elf:micropt:riscv:0x40000000-0x40060000"
+
+for board in $BOARDS; do
+    IFS=: read -r name target floats arch rom <<<"$board"
     bstep "$name ($target): fmt, clippy, build"
     (
         cd "examples/boards/$name"
@@ -52,7 +108,11 @@ for board in pico2:thumbv8m.main-none-eabihf pico:thumbv6m-none-eabi esp32c3:ris
         cargo clippy --release --locked -- -D warnings
         cargo build --release --locked
     )
-    elf_size "$CARGO_TARGET_DIR/$target/release/micropt-$name" "$name"
+    elf="$CARGO_TARGET_DIR/$target/release/micropt-$name"
+    elf_size "$elf" "$name"
+    echo "$name: f32 routines linked (address, size, where, whose):"
+    python3 .ci/floats.py "$elf" "$floats" --arch "$arch" --rom "$rom"
+    boot_image "$name" "$elf"
 done
 
 bstep "boards done"

@@ -62,8 +62,9 @@ const WIDTH: u32 = 240;
 const HEIGHT: u32 = 240;
 /// Core clock.
 const CORE_HZ: u32 = 168_000_000;
-/// The render budget: 16 samples per pixel on average (about 45 s at
-/// 168 MHz, docs/firmware.md); e.g. `Budget::Deadline(10_000_000)` for a
+/// The render budget: 16 samples per pixel on average (about 21 s at
+/// 168 MHz, estimated at one instruction per cycle from QEMU's instruction
+/// count, docs/firmware.md); e.g. `Budget::Deadline(10_000_000)` for a
 /// frame in 10 s.
 const BUDGET: Budget = Budget::Spp(16);
 /// Render seed.

@@ -31,7 +31,8 @@
 //! balls, sampled from the light's side; feature `highlight`),
 //! [`integrator`], [`film`], [`render`], [`budget`] (fixed budgets,
 //! progressive and adaptive), [`multicore`] (one budgeted render shared
-//! between cores; on targets with atomic read-modify-write).
+//! between cores; its atomic work queues on targets with atomic
+//! read-modify-write).
 
 #![no_std]
 #![cfg_attr(
@@ -58,7 +59,6 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod math;
-#[cfg(target_has_atomic = "ptr")]
 pub mod multicore;
 #[cfg(feature = "parser")]
 pub mod parse;

@@ -23,9 +23,18 @@
 //!
 //! Only sample budgets are shared: a [`Budget::Deadline`] is refused
 //! ([`SharedError::Deadline`]).
+//!
+//! The queues here, [`AtomicQueue`] and [`DealtQueue`], count with atomic
+//! read-modify-write and exist only on targets that have it. On one that
+//! has not (Armv6-M: the RP2040's two Cortex-M0+), the board implements
+//! [`WorkQueue`] with a lock of its own (a hardware spinlock): the executor
+//! needs nothing else of the target.
 
+#[cfg(target_has_atomic = "ptr")]
 use core::cell::Cell;
-use core::sync::atomic::{AtomicU16, AtomicUsize, Ordering};
+#[cfg(target_has_atomic = "ptr")]
+use core::sync::atomic::AtomicUsize;
+use core::sync::atomic::{AtomicU16, Ordering};
 
 use embedded_graphics::Pixel;
 use embedded_graphics::draw_target::DrawTarget;
@@ -46,7 +55,9 @@ pub enum Pass {
 }
 
 impl Pass {
-    fn index(self) -> usize {
+    /// 0 for the preview, 1 for the refinement: an index into a queue's
+    /// per-pass counters.
+    pub fn index(self) -> usize {
         match self {
             Pass::Preview => 0,
             Pass::Refine => 1,
@@ -71,6 +82,7 @@ pub trait WorkQueue {
     fn idle(&self) {}
 }
 
+#[cfg(target_has_atomic = "ptr")]
 /// A [`WorkQueue`] of atomic counters for a fixed number of cores, for one
 /// render (a new render needs a new queue, or [`AtomicQueue::reset`] when no
 /// core uses it).
@@ -81,6 +93,7 @@ pub struct AtomicQueue {
     done: [AtomicUsize; 2],
 }
 
+#[cfg(target_has_atomic = "ptr")]
 impl AtomicQueue {
     /// A queue for `cores` cores (at least 1).
     pub const fn new(cores: usize) -> Self {
@@ -99,6 +112,7 @@ impl AtomicQueue {
     }
 }
 
+#[cfg(target_has_atomic = "ptr")]
 impl WorkQueue for AtomicQueue {
     fn take(&self, pass: Pass) -> usize {
         // the count of takes only hands out distinct numbers: no ordering
@@ -114,6 +128,7 @@ impl WorkQueue for AtomicQueue {
     }
 }
 
+#[cfg(target_has_atomic = "ptr")]
 /// One core's [`WorkQueue`] that deals each pass's tiles out in turn: core
 /// `k` of `n` takes tiles `k, k + n, k + 2n, …`, whatever the other cores
 /// do. A fixed split: each core's work does not depend on the cores' speeds
@@ -128,6 +143,7 @@ pub struct DealtQueue<'a> {
     next: [Cell<usize>; 2],
 }
 
+#[cfg(target_has_atomic = "ptr")]
 impl<'a> DealtQueue<'a> {
     /// Core `core` (`0..shared`'s cores) of the cores that share `shared`.
     pub fn new(shared: &'a AtomicQueue, core: usize) -> Self {
@@ -139,6 +155,7 @@ impl<'a> DealtQueue<'a> {
     }
 }
 
+#[cfg(target_has_atomic = "ptr")]
 impl WorkQueue for DealtQueue<'_> {
     fn take(&self, pass: Pass) -> usize {
         let k = &self.next[pass.index()];

@@ -3,15 +3,19 @@
 //! by tile, straight to the panel through `mipidsi`.
 //!
 //! The core's single-core budget executor (`micropt::budget::render_budget`)
-//! keeps one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB, static)
-//! and draws every tile twice, tone-mapped, dithered, with one window write:
-//! first a 1-sample preview of the whole image, then each tile refined to
-//! its share of [`BUDGET`] with adaptive allocation. With `Budget::Spp(16)`
-//! the final image is the host's
+//! keeps one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB, on the
+//! stack) and draws every tile twice, tone-mapped, dithered, with one window
+//! write: first a 1-sample preview of the whole image, then each tile
+//! refined to its share of [`BUDGET`] with adaptive allocation. With
+//! `Budget::Spp(16)` the final image is the host's
 //! `micropt render scenes/cornell.scene --size 240x240 --spp 16 --seed 0`
 //! (the same image as the STM32F405 example's). The C3 has no FPU: every
-//! float operation is a compiler-builtins routine, so a frame is many times
-//! slower than on an M4F (docs/boards.md); a `Budget::Deadline(µs)` caps it
+//! f32 add, subtract, multiply, divide, compare and int-to-float conversion
+//! is micropt's correctly rounded routine (`micropt::math::soft`, exported
+//! under the libgcc names by `examples/board/softfloat.rs`), not the chip's
+//! mask-ROM libgcc, which esp-hal's linker script would bind them to
+//! (`build.rs` says how that is kept off). So a frame is many times slower
+//! than on an M4F (docs/boards.md); a `Budget::Deadline(µs)` caps it
 //! instead, read from esp-hal's microsecond clock.
 //!
 //! Wiring (SPI2 on its IO MUX pins; any ESP32-C3 board, e.g. an
@@ -26,21 +30,34 @@
 //! | RES   | GPIO5              |
 //! | DC    | GPIO4              |
 //! | CS    | GPIO10 (absent on some modules: leave it unconnected) |
-//! | BLK   | GPIO3 (driven high: backlight on) |
+//! | BLK   | GPIO3 (high after the panel is cleared) |
 //!
 //! (Clear of the strapping pins GPIO2/8/9, the flash pins GPIO12–17 and
 //! USB's GPIO18/19.)
 //!
-//! Build and flash over USB with espflash:
+//! What it shows: the panel is cleared to black before the backlight comes
+//! on, then the preview fills it in tile by tile, then the refined tiles
+//! replace it. Over USB (`espflash flash --monitor`, or any serial monitor
+//! on the board's USB port: esp-println writes to the C3's USB serial/JTAG
+//! or to UART0, whichever the board's USB connector is wired to) it prints
+//! each init step, the preview's and each tenth of the refinement's
+//! progress, and the frame time; a failed step says which. The backlight
+//! stays off if the panel could not be set up.
 //!
-//! ```text
-//! cd examples/boards/esp32c3
-//! cargo build --release
-//! espflash flash --monitor target/riscv32imc-unknown-none-elf/release/micropt-esp32c3
-//! ```
+//! Build and flash: docs/boards.md.
 #![no_std]
 #![no_main]
 
+// micropt's soft-float routines under the runtime's names (same bits as the
+// host; build.rs keeps the ROM's libgcc table from overriding them)
+#[path = "../../../board/softfloat.rs"]
+mod softfloat;
+
+#[path = "../../../board/progress.rs"]
+mod progress;
+
+use embedded_graphics::draw_target::DrawTarget;
+use embedded_graphics::pixelcolor::{Rgb565, RgbColor};
 use embedded_hal_bus::spi::ExclusiveDevice;
 use esp_hal::clock::CpuClock;
 use esp_hal::delay::Delay;
@@ -48,12 +65,15 @@ use esp_hal::gpio::{Level, Output, OutputConfig};
 use esp_hal::spi::Mode;
 use esp_hal::spi::master::{Config, Spi};
 use esp_hal::time::{Instant, Rate};
+use esp_println::println;
 use micropt::budget::{TileAccum, render_budget};
+use micropt::film::tile_count;
 use micropt::{AdaptiveOptions, Budget, Renderer, Scene};
 use mipidsi::Builder;
 use mipidsi::interface::SpiInterface;
 use mipidsi::models::ST7789;
 use mipidsi::options::ColorInversion;
+use progress::{Milestone, Progress};
 
 // the application descriptor the ESP-IDF second-stage bootloader checks
 esp_bootloader_esp_idf::esp_app_desc!();
@@ -82,23 +102,50 @@ impl micropt::Clock for SysClock {
     }
 }
 
-/// Stops here on a panic (no way to report it without a monitor).
+/// Seconds since boot, with milliseconds, for the log.
+fn stamp() -> (u64, u64) {
+    let ms = Instant::now().duration_since_epoch().as_millis();
+    (ms / 1000, ms % 1000)
+}
+
+/// Logs how far the frame has come.
+fn report(m: Milestone) {
+    let (s, ms) = stamp();
+    match m {
+        Milestone::Preview => println!("[{s}.{ms:03}] preview on the panel"),
+        Milestone::Refined(p) => println!("[{s}.{ms:03}] refined: {p}%"),
+    }
+}
+
+/// Says which init step failed, and stops.
+fn fail(step: &str) -> ! {
+    let (s, ms) = stamp();
+    println!("[{s}.{ms:03}] error: {step} failed; stopped");
+    halt()
+}
+
+/// Stops here on a panic, after printing it.
 #[panic_handler]
-fn panic(_: &core::panic::PanicInfo) -> ! {
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    println!("panic: {info}");
     halt()
 }
 
 #[esp_hal::main]
 fn main() -> ! {
     let p = esp_hal::init(esp_hal::Config::default().with_cpu_clock(CpuClock::max()));
-    let _backlight = Output::new(p.GPIO3, Level::High, OutputConfig::default());
+    println!("micropt on ESP32-C3 + ST7789: cornell {WIDTH}x{HEIGHT}, {BUDGET:?}");
+    // backlight off until the panel is cleared
+    let mut backlight = Output::new(p.GPIO3, Level::Low, OutputConfig::default());
+    // mode 3: CS-less 240×240 modules only answer in it, and it works with
+    // CS wired too
     let Ok(spi) = Spi::new(
         p.SPI2,
         Config::default()
             .with_frequency(Rate::from_mhz(40))
-            .with_mode(Mode::_0),
+            .with_mode(Mode::_3),
     ) else {
-        halt()
+        fail("SPI2 setup (40 MHz, mode 3)")
     };
     let spi = spi.with_sck(p.GPIO6).with_mosi(p.GPIO7);
     let cs = Output::new(p.GPIO10, Level::High, OutputConfig::default());
@@ -115,32 +162,50 @@ fn main() -> ! {
         .reset_pin(rst)
         .init(&mut Delay::new())
     else {
-        halt()
+        fail("panel init (ST7789 reset and commands over SPI2)")
     };
+    if panel.clear(Rgb565::BLACK).is_err() {
+        fail("panel clear")
+    }
+    backlight.set_high();
+    println!("panel ready (cleared, backlight on)");
 
     let mut scene = BoardScene::EMPTY;
-    if micropt::parse::parse_into(SCENE_TEXT, &mut scene).is_err() {
-        halt()
+    if let Err(e) = micropt::parse::parse_into(SCENE_TEXT, &mut scene) {
+        println!("scene: {e:?}");
+        fail("scene parse")
     }
     let Ok(renderer) = Renderer::new(&scene, WIDTH, HEIGHT) else {
-        halt()
+        fail("renderer setup")
     };
     let renderer = renderer.seed(SEED);
     let mut acc = TileAccum::new();
+    let tiles = tile_count(WIDTH, HEIGHT) as u32;
+    let mut target = Progress::new(panel, tiles, report);
+    println!("rendering {tiles} tiles: preview, then refinement");
     // preview first, then refined tiles, each straight to the panel
-    let _ = render_budget(
+    match render_budget(
         &renderer,
         BUDGET,
         &AdaptiveOptions::default(),
         &mut acc,
         &mut SysClock,
-        &mut panel,
+        &mut target,
         1.0,
-    );
+    ) {
+        Ok(s) => println!(
+            "frame done in {} ms (preview {} ms): {} samples, {} paths",
+            s.total_micros / 1000,
+            s.preview_micros / 1000,
+            s.samples,
+            s.stats.paths
+        ),
+        Err(_) => fail("drawing a tile"),
+    }
     halt()
 }
 
-/// Stops here (done, or no way to report an error without a monitor).
+/// Stops here.
 fn halt() -> ! {
     loop {
         core::hint::spin_loop();
