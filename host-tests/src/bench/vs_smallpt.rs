@@ -108,6 +108,12 @@ pub fn vs_smallpt(
                     options: cfg.smallpt,
                 },
             )?;
+            if s.truncated > 0 {
+                return Err(format!(
+                    "smallpt ended {} path(s) at its cap of {} hits at spp {spp}, seed {seed}: its image lacks their light, so its MSE is no measure of its variance",
+                    s.truncated, cfg.smallpt.max_depth
+                ));
+            }
             let smallpt = Timed {
                 cpu_seconds: process_cpu_seconds() - cpu0,
                 seconds: s.seconds,
