@@ -64,10 +64,17 @@ impl core::fmt::Display for SceneError {
             SceneError::NoCamera => f.write_str("the scene has no camera"),
             SceneError::SecondCamera => f.write_str("a second camera (exactly one is allowed)"),
             SceneError::Camera(CameraError::EyeEqualsTarget) => {
-                f.write_str("camera eye equals target")
+                f.write_str(
+                    "camera eye equals target, or their distance squared is not a normal f32 \
+                     (a distance outside about 1.1e-19 .. 1.8e19)",
+                )
             }
             SceneError::Camera(CameraError::UpParallelToView) => {
-                f.write_str("camera up vector is zero or parallel to the view direction")
+                f.write_str(
+                    "camera up vector is parallel to the view direction (the sine of their angle \
+                     under 1e-6), or its length squared is 0 or not finite in f32 (a length \
+                     outside about 4e-23 .. 1.8e19)",
+                )
             }
             SceneError::Camera(CameraError::FovOutOfRange) => {
                 f.write_str("vertical field of view must be in (0, 180) degrees")
@@ -216,7 +223,9 @@ impl<const S: usize, const P: usize, const M: usize> Lists<'_, S, P, M> {
             // zero, or so small/large that normalising would fail
             let n = normal * (1.0 / normal.abs().max_component());
             if !(n.length_squared() > 0.0) || !n.is_finite() {
-                return Err(SceneError::OutOfRange("plane normal (zero)"));
+                return Err(SceneError::OutOfRange(
+                    "plane normal (zero, or its largest component under 2.9e-39: too small to normalise)",
+                ));
             }
             return self.plane(point, n, m);
         }
@@ -544,7 +553,9 @@ mod tests {
         );
         assert_eq!(
             b.plane(Vec3::ZERO, Vec3::ZERO, lamp),
-            Err(SceneError::OutOfRange("plane normal (zero)"))
+            Err(SceneError::OutOfRange(
+                "plane normal (zero, or its largest component under 2.9e-39: too small to normalise)"
+            ))
         );
         assert_eq!(
             b.sphere(Vec3::ZERO, 1.0, MaterialId(7)),
