@@ -46,9 +46,14 @@ pub struct CameraSpec {
 /// Why a camera specification is unusable.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CameraError {
-    /// The eye equals the target: no view direction.
+    /// The eye equals the target (no view direction), or the squared
+    /// distance between them is not a normal f32 (a distance below about
+    /// 1.1e-19 or above 1.8e19, where normalising the view direction fails).
     EyeEqualsTarget,
-    /// The up vector is zero or parallel to the view direction.
+    /// The up vector is parallel to the view direction (the sine of the
+    /// angle between them at most 1e-6), or its squared length is 0 or not
+    /// finite in f32 (a length below about 4e-23, zero included, or above
+    /// 1.8e19).
     UpParallelToView,
     /// The vertical field of view is not in (0, 180) degrees.
     FovOutOfRange,

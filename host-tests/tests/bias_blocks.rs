@@ -2,7 +2,8 @@
 //! percent off when brighter regions dominate it. Here the law checked is
 //! unbiasedness region by region: the pooled mean of independent renders
 //! of every row and every 8×8 block lies within 4 standard errors of an
-//! independent double-precision reference (both sides' errors counted: the
+//! independent reference (smallpt's in double precision, gloss's, dof's and
+//! many's from Mitsuba; both sides' errors counted: the
 //! renders' from their spread over seeds, the reference's from its
 //! per-pixel standard-error map).
 //!
@@ -15,10 +16,10 @@ mod common;
 
 use common::figure;
 use micropt::Options;
-use micropt::parse::parse;
 use micropt_host::image::Image;
 use micropt_host::metrics::{BiasReport, bias_z, pooled};
-use micropt_host::render::{RenderJob, render};
+use micropt_host::reference::scenes_dir;
+use micropt_host::render::{RenderJob, parse_host, render};
 use std::path::PathBuf;
 
 fn data(name: &str) -> Image {
@@ -26,16 +27,19 @@ fn data(name: &str) -> Image {
     Image::load_pfm(&root.join("data").join(name)).unwrap()
 }
 
-/// Renders smallpt `seeds` times at `spp` (uniform, so each render is
+/// Renders scene `name` `seeds` times at `spp` (uniform, so each render is
 /// unbiased on its own) and compares the pooled image, with its standard
 /// error from the renders' spread, with the reference row by row and 8×8
 /// block by block.
-fn smallpt_regions(seeds: u64, spp: u32) -> BiasReport {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let text = std::fs::read_to_string(root.join("scenes/smallpt.scene")).unwrap();
-    let scene = parse(&text).unwrap();
-    let reference = data("smallpt.pfm");
-    let reference_se = data("smallpt.se.pfm");
+///
+/// `reference_wrong` lists rows where the reference is known to be wrong:
+/// the pooled mean takes the reference's values there, so that those rows
+/// add nothing to their row's or block's difference.
+fn regions(name: &str, seeds: u64, spp: u32, reference_wrong: &[u32]) -> BiasReport {
+    let text = std::fs::read_to_string(scenes_dir().join(format!("{name}.scene"))).unwrap();
+    let scene = parse_host(&text).unwrap();
+    let reference = data(&format!("{name}.pfm"));
+    let reference_se = data(&format!("{name}.se.pfm"));
     let renders: Vec<Image> = (0..seeds)
         .map(|s| {
             let job = RenderJob {
@@ -46,21 +50,30 @@ fn smallpt_regions(seeds: u64, spp: u32) -> BiasReport {
                 threads: 0,
                 options: Options::default(),
             };
-            let out = render(&scene, &job, &|| {}).unwrap();
-            assert_eq!(out.stats.nonfinite, 0);
+            let out = render(&*scene, &job, &|| {}).unwrap();
+            assert_eq!(out.stats.nonfinite, 0, "{name}");
             out.image
         })
         .collect();
-    let (mean, se) = pooled(&renders).unwrap();
+    let (mut mean, se) = pooled(&renders).unwrap();
+    for &y in reference_wrong {
+        for x in 0..mean.width {
+            let i = (y * mean.width + x) as usize;
+            mean.pixels[i] = reference.pixels[i];
+        }
+    }
     bias_z(&mean, &se, &reference, &reference_se, 8).unwrap()
 }
 
-fn check(seeds: u64, spp: u32) {
-    let z = smallpt_regions(seeds, spp);
+/// Asserts that no row and no 8×8 block of `name` at `seeds` × `spp` lies
+/// beyond `bound` standard errors of the reference, and prints the figures.
+fn check(name: &str, seeds: u64, spp: u32, bound: f64, reference_wrong: &[u32]) {
+    let started = std::time::Instant::now();
+    let z = regions(name, seeds, spp, reference_wrong);
     let label = format!("{seeds} x {spp} spp");
     for (what, g) in [("row", &z.rows), ("8x8 block", &z.blocks)] {
         figure(
-            "smallpt regions",
+            &format!("{name} regions"),
             &format!("{what}s at {label}"),
             format!(
                 "max |z| {:.2} (group {}, channel {}), chi2/dof {:.2}",
@@ -68,15 +81,14 @@ fn check(seeds: u64, spp: u32) {
             ),
         );
     }
-    // 48 rows and 48 blocks, three channels each: an unbiased renderer
-    // exceeds 4 standard errors in any of them with a probability of about
-    // 2 % (each standard error estimated from 32 renders per pixel, summed
-    // over 64 pixels: nearly normal); the f32-rounded ceiling gave z = +11
-    // at the lamp's rim at this budget, the walls' 0.04-unit spawn offsets
-    // z = −6 on the floor
+    figure(
+        &format!("{name} regions"),
+        &format!("seconds at {label}"),
+        format!("{:.1}", started.elapsed().as_secs_f64()),
+    );
     assert!(
-        z.rows.max_abs_z <= 4.0 && z.blocks.max_abs_z <= 4.0,
-        "regional bias: rows {:?}, blocks {:?}",
+        z.rows.max_abs_z <= bound && z.blocks.max_abs_z <= bound,
+        "{name}: regional bias: rows {:?}, blocks {:?}",
         z.rows,
         z.blocks
     );
@@ -93,7 +105,7 @@ fn check(seeds: u64, spp: u32) {
 /// 32 renders of 64 spp (2,048 spp pooled).
 #[test]
 fn smallpt_has_no_regional_bias() {
-    check(32, 64);
+    check("smallpt", 32, 64, 4.0, &[]);
 }
 
 /// The budget of the acceptance check, 8 × 1024 spp pooled as 32 × 256:
@@ -101,5 +113,31 @@ fn smallpt_has_no_regional_bias() {
 #[test]
 #[ignore]
 fn smallpt_has_no_regional_bias_deep() {
-    check(32, 256);
+    check("smallpt", 32, 256, 4.0, &[]);
+}
+
+/// Regional bias beyond smallpt, against the Mitsuba references
+/// (docs/mitsuba.md), where a whole-image mean cannot see a bias confined
+/// to a highlight, a window's rim or the lens' blur: dof, 32 × 256 spp
+/// (about 15 s).
+#[test]
+#[ignore = "deep run: cargo test -p micropt-host --test bias_blocks -- --ignored"]
+fn dof_has_no_regional_bias() {
+    check("dof", 32, 256, 4.0, &[]);
+}
+
+/// gloss, 32 × 256 spp (about 25 s). Row 20 holds the horizon, where the
+/// reference is 1.7 % too bright (docs/mitsuba.md): left out.
+#[test]
+#[ignore = "deep run; fails against the reference now (docs/mitsuba.md)"]
+fn gloss_has_no_regional_bias() {
+    check("gloss", 32, 256, 4.0, &[20]);
+}
+
+/// many, 32 × 256 spp (about 75 s). Row 4 holds the horizon, where the
+/// reference is 1.9 % too bright (docs/mitsuba.md): left out.
+#[test]
+#[ignore = "deep run; fails against the reference now (docs/mitsuba.md)"]
+fn many_has_no_regional_bias() {
+    check("many", 32, 256, 4.0, &[4]);
 }

@@ -293,3 +293,160 @@ fn aperture_zero_is_the_pinhole_bit_for_bit() {
         assert_eq!(sa.rays(), sb.rays(), "{name}");
     }
 }
+
+/// The lens test's camera: vertical field of view in degrees, focus
+/// distance, image side in pixels, samples per pixel.
+const VFOV: f32 = 20.0;
+const FOCUS: f32 = 4.0;
+const SIDE: u32 = 64;
+const SPP: u32 = 256;
+
+/// A lamp's image: its flux (sum of the pixels, in px²: the lamp has
+/// radiance 1), the number of samples that hit it, its flux-weighted
+/// centroid over the pixel centres, its second moments about the centroid
+/// `[xx, yy, xy]`, and the variances of one hit's contribution to each
+/// (`E[(dx²)²] − xx²`, …: what makes the moments' standard errors).
+struct LampImage {
+    flux: f64,
+    hits: f64,
+    centroid: [f64; 2],
+    moments: [f64; 3],
+    variances: [f64; 3],
+}
+
+/// The image of a lamp of radiance 1 at (`x`, `y`, −`depth`) of radius
+/// `r`, black elsewhere, through the camera at the origin looking down −z
+/// ([`VFOV`], +y up) with a lens of radius `aperture` focused at [`FOCUS`]
+/// (aperture 0: the pinhole), [`SIDE`]² pixels at [`SPP`].
+fn lamp_image(x: f32, y: f32, depth: f32, r: f32, aperture: f32) -> LampImage {
+    let scene = parse(&format!(
+        "camera 0 0 0  0 0 -1  0 1 0  {VFOV}  {aperture} {FOCUS}\n\
+         material lamp light 1 1 1\n\
+         sphere {x} {y} {}  {r}  lamp\n",
+        -depth
+    ))
+    .unwrap();
+    let rend = Renderer::new(&scene, SIDE, SIDE).unwrap().seed(9);
+    let mut stats = Stats::default();
+    let mut pixels = Vec::new();
+    for py in 0..SIDE {
+        for px in 0..SIDE {
+            let mut sum = 0.0;
+            for k in 0..SPP {
+                let c = rend.sample(px, py, k, &mut stats);
+                // a sample sees the lamp (radiance 1) or the black sky
+                assert!(c == Vec3::ZERO || c == Vec3::ONE, "({px}, {py}) {k}: {c:?}");
+                sum += f64::from(c.x);
+            }
+            pixels.push((
+                f64::from(px) + 0.5,
+                f64::from(py) + 0.5,
+                sum / f64::from(SPP),
+            ));
+        }
+    }
+    let flux: f64 = pixels.iter().map(|p| p.2).sum();
+    let mean =
+        |f: &dyn Fn(f64, f64) -> f64| pixels.iter().map(|p| f(p.0, p.1) * p.2).sum::<f64>() / flux;
+    let (cx, cy) = (mean(&|x, _| x), mean(&|_, y| y));
+    let parts: [&dyn Fn(f64, f64) -> f64; 3] = [
+        &|x, _| (x - cx) * (x - cx),
+        &|_, y| (y - cy) * (y - cy),
+        &|x, y| (x - cx) * (y - cy),
+    ];
+    let moments = parts.map(&mean);
+    let variances = [0, 1, 2].map(|i| mean(&|x, y| parts[i](x, y).powi(2)) - moments[i].powi(2));
+    LampImage {
+        flux,
+        hits: flux * f64::from(SPP),
+        centroid: [cx, cy],
+        moments,
+        variances,
+    }
+}
+
+/// Thin-lens law on the rendered film: a point at depth d along the view
+/// axis images to a uniform disk (the circle of confusion) of radius
+/// `APERTURE · |d − FOCUS| / (FOCUS · d)` in units of the film's tangent
+/// plane, `H / (2 tan(VFOV/2))` pixels per unit (APERTURE is the lens'
+/// radius: the diameter is twice that); at d = FOCUS it is a point: sharp.
+/// A lamp's image through the lens is its pinhole image convolved with that
+/// disk, so its centroid is the pinhole image's, its flux the same (the
+/// lens moves light on the film, it adds none), and its second moments
+/// those of the pinhole image plus the disk's, `R²/4` along each film axis
+/// and 0 across. Lamps of film radius 2 px at depths 2 to 12 against focus
+/// 4 (blur radii 0 to 13.6 px), off the axis, 64 × 64 pixels at 256 spp.
+/// Tolerances: 4 standard errors of the hits as independent draws (the
+/// stratified samples do better), plus for the moments 1/6 px², the whole
+/// of a pixel's own moment (pixel centres stand for their squares, and the
+/// sharp-edged pinhole disk and the blurred one round differently).
+#[test]
+fn a_small_lamp_blurs_into_the_circle_of_confusion() {
+    let aperture = 0.3;
+    let scale = f64::from(SIDE) / (2.0 * (f64::from(VFOV) / 2.0).to_radians().tan());
+    let f = f64::from(FOCUS);
+    let half = f64::from(SIDE) / 2.0;
+    // the lamp's own film radius, in pixels
+    let lamp_px = 2.0;
+    for (depth, off) in [
+        (4.0f32, [0.3, -0.2]),
+        (2.0, [-3.7, 2.4]),
+        (3.0, [5.2, 4.1]),
+        (8.0, [0.0, 0.0]),
+        (12.0, [-6.4, -9.3]),
+    ] {
+        let d = f64::from(depth);
+        // the lamp whose pinhole image is `off` pixels from the film's
+        // centre (film y grows downwards)
+        let x = (off[0] / scale * d) as f32;
+        let y = (-off[1] / scale * d) as f32;
+        let r = (lamp_px / scale * d) as f32;
+        let pin = lamp_image(x, y, depth, r, 0.0);
+        let lens = lamp_image(x, y, depth, r, aperture);
+        let blur = f64::from(aperture) * (d - f).abs() / (f * d) * scale;
+        let want = [blur * blur / 4.0, blur * blur / 4.0, 0.0];
+        let got: Vec<f64> = (0..3).map(|i| lens.moments[i] - pin.moments[i]).collect();
+        let measured = (2.0 * (got[0] + got[1])).max(0.0).sqrt();
+        let shift = (lens.centroid[0] - pin.centroid[0]).hypot(lens.centroid[1] - pin.centroid[1]);
+        common::figure(
+            "lens_blur",
+            &format!(
+                "depth {depth}: blur radius px, thin lens / measured; centroid shift px; flux / pinhole's"
+            ),
+            format!(
+                "{blur:.3} / {measured:.3}; {shift:.3}; {:.4}",
+                lens.flux / pin.flux
+            ),
+        );
+        for i in 0..3 {
+            let se = (lens.variances[i] / lens.hits + pin.variances[i] / pin.hits).sqrt();
+            assert!(
+                (got[i] - want[i]).abs() <= 4.0 * se + 1.0 / 6.0,
+                "depth {depth}: second moment {} of the blur {} px², thin lens {} px² \
+                 (radius {blur} px; standard error {se})",
+                ["xx", "yy", "xy"][i],
+                got[i],
+                want[i]
+            );
+        }
+        // the pinhole image is where the camera maps the lamp's centre
+        let se_c = (pin.moments[0] + pin.moments[1]) / pin.hits;
+        let pin_off = (pin.centroid[0] - half - off[0]).hypot(pin.centroid[1] - half - off[1]);
+        assert!(
+            pin_off <= 4.0 * se_c.sqrt() + 0.5,
+            "depth {depth}: pinhole image {pin_off} px off"
+        );
+        let se_c = ((lens.moments[0] + lens.moments[1]) / lens.hits + se_c).sqrt();
+        assert!(
+            shift <= 4.0 * se_c,
+            "depth {depth}: the blur's centre moved {shift} px (standard error {se_c})"
+        );
+        let se_flux = (1.0 / lens.hits + 1.0 / pin.hits).sqrt();
+        assert!(
+            (lens.flux / pin.flux - 1.0).abs() <= 4.0 * se_flux,
+            "depth {depth}: flux {} against the pinhole's {}",
+            lens.flux,
+            pin.flux
+        );
+    }
+}

@@ -283,9 +283,86 @@ fn values_out_of_range() {
         (e.line, e.kind),
         (
             3,
-            ParseErrorKind::Scene(SceneError::OutOfRange("plane normal (zero)"))
+            ParseErrorKind::Scene(SceneError::OutOfRange(
+                "plane normal (zero, or its largest component under 2.9e-39: too small to normalise)"
+            ))
         )
     );
+}
+
+/// What the checks test, at the edges of f32: a radius whose square is
+/// not a normal f32, a normal too small to normalise, an eye and target
+/// too far apart, an up vector too short; each error names its line and
+/// says what was tested.
+#[test]
+fn range_errors_at_the_edges_of_f32_say_what_was_tested() {
+    for (text, line, words) in [
+        (
+            "material m diffuse 1 1 1\nsphere 0 0 0 1e-20 m\n",
+            3,
+            "its square must be a normal f32",
+        ),
+        (
+            "material m diffuse 1 1 1\nsphere 0 0 0 2e19 m\n",
+            3,
+            "its square must be a normal f32",
+        ),
+        (
+            "material m diffuse 1 1 1\n\nplane 0 0 0 0 1e-40 0 m\n",
+            4,
+            "largest component under 2.9e-39",
+        ),
+    ] {
+        let e = err_after_camera(text);
+        let msg = e.to_string();
+        assert!(
+            msg.starts_with(&format!("line {line}: ")) && msg.contains(words),
+            "{msg}"
+        );
+    }
+    // the smallest and largest radii and normals that pass
+    for text in [
+        "material m diffuse 1 1 1\nsphere 0 0 0 1.1e-19 m\n",
+        "material m diffuse 1 1 1\nsphere 0 0 0 1.8e19 m\n",
+        "material m diffuse 1 1 1\nplane 0 0 0 0 3e-39 0 m\n",
+        "material m diffuse 1 1 1\nplane 0 0 0 0 1e30 0 m\n",
+    ] {
+        assert!(
+            parse(&format!("camera 0 0 4 0 0 0 0 1 0 40\n{text}")).is_ok(),
+            "{text}"
+        );
+    }
+    for (text, words) in [
+        (
+            "camera 1e30 0 0  0 0 0  0 1 0  40\n",
+            "distance squared is not a normal f32",
+        ),
+        (
+            "camera 0 0 1e-20  0 0 0  0 1 0  40\n",
+            "distance squared is not a normal f32",
+        ),
+        (
+            "camera 0 0 4  0 0 0  1e-30 0 0  40\n",
+            "length squared is 0 or not finite",
+        ),
+        (
+            "camera 0 0 4  0 0 0  0 1e20 0  40\n",
+            "length squared is 0 or not finite",
+        ),
+        (
+            "camera 0 0 4  0 0 0  1e-7 0 1  40\n",
+            "sine of their angle under 1e-6",
+        ),
+    ] {
+        let msg = err(&format!("# a comment\n{text}")).to_string();
+        assert!(
+            msg.starts_with("line 2: ") && msg.contains(words),
+            "{text}: {msg}"
+        );
+    }
+    // a long eye-target distance and a short up vector that still pass
+    assert!(parse("camera 1e18 0 0  0 0 0  0 1 0  40\n").is_ok());
+    assert!(parse("camera 0 0 4  0 0 0  1e-20 0 0  40\n").is_ok());
 }
 
 #[test]

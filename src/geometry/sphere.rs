@@ -48,8 +48,10 @@ impl Sphere {
     /// centre toward the world origin, passes through the exact surface
     /// point in that direction and lies within `|center_lo|·|m − n|` of the
     /// exact sphere in any other direction `m`: negligible across a scene
-    /// (under 1e-5 units for smallpt's walls, where `|m − n| < 2e-3`), and
-    /// never more than the centre's own rounding. `δ` enters where the
+    /// (under 1e-5 units for smallpt's walls, where `|m − n| < 2e-3`), but
+    /// up to twice the centre's rounding on the side away from the origin
+    /// (`m = −n`), where the sphere without `δ` is off by once it: the
+    /// correction is for the side that faces the origin. `δ` enters where the
     /// surface's exact position counts: the power of ray origins near the
     /// surface and the refined hit points of huge spheres.
     pub fn with_residuals(

@@ -79,8 +79,11 @@ pub enum Strategy {
 /// Which work the integrator skips because the scene analysis
 /// ([`crate::analysis`]) proved it unneeded. Every switch is on by default;
 /// turning one off exists to measure what it saves and to test that the
-/// image does not change (bit for bit, except `unreachable_lights` and
-/// `specialize` with several lights, which change the random numbers drawn).
+/// image does not change: bit for bit, except `specialize`, `horizon` with
+/// several lights (the lights below the horizon no longer share the
+/// selection probabilities, so one random number picks another light),
+/// `unreachable_lights` with an unreachable light, and `windows`, which
+/// change the random numbers drawn or the estimator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Skip {
     /// Shadow rays test only objects that can lie between a point and a light.

@@ -228,6 +228,14 @@ impl Lobe for Metal {
 /// angle, so that no light that can contribute is ever left out.
 #[cfg(feature = "metal")]
 pub(crate) fn light_share(alpha: f32, wo: Vec3, n: Vec3, to_c: Vec3, d2: f32, omc: f32) -> f32 {
+    cap_share(lobe_share(alpha, wo, n, to_c, d2, omc))
+}
+
+/// [`light_share`] before its cap: finite and ≥ 0 for `cos θo` > 0, +∞ at
+/// grazing incidence (`cos θo` = 0).
+#[cfg(feature = "metal")]
+#[inline(always)]
+fn lobe_share(alpha: f32, wo: Vec3, n: Vec3, to_c: Vec3, d2: f32, omc: f32) -> f32 {
     let cos_o = n.dot(wo);
     let r = n * (2.0 * cos_o) - wo;
     let cos_g = r.dot(to_c) / math::sqrt(d2);
@@ -246,9 +254,24 @@ pub(crate) fn light_share(alpha: f32, wo: Vec3, n: Vec3, to_c: Vec3, d2: f32, om
     let a2 = alpha * alpha;
     let den = c2 * a2 + s2;
     let pi_d = a2 / (den * den);
-    // 2π omc · D / (4 cos θo), capped at all of the lobe
-    let share = omc * pi_d / (2.0 * cos_o);
-    if share < 1.0 { share } else { 1.0 }
+    // 2π omc · D / (4 cos θo)
+    omc * pi_d / (2.0 * cos_o)
+}
+
+/// A share capped at all of the lobe: values from 1 up (+∞ included) give
+/// 1, and NaN, which no valid input gives, gives 0 rather than passing for
+/// a whole lobe (the choice by radiance × solid angle still reaches the
+/// light).
+#[cfg(feature = "metal")]
+#[inline(always)]
+fn cap_share(share: f32) -> f32 {
+    if share < 1.0 {
+        share
+    } else if share >= 1.0 {
+        1.0
+    } else {
+        0.0
+    }
 }
 
 #[cfg(all(test, feature = "metal"))]
@@ -260,6 +283,19 @@ mod tests {
             tint: Color::ONE,
             alpha,
         }
+    }
+
+    /// The cap keeps fractions, makes 1 of everything from 1 up and 0 of
+    /// NaN (which would otherwise count as a whole lobe).
+    #[test]
+    fn the_cap_passes_fractions_and_rejects_nan() {
+        for v in [0.0f32, 1e-30, 0.25, 0.999_999_94] {
+            assert_eq!(cap_share(v), v);
+        }
+        for v in [1.0f32, 1.5, 1e30, f32::INFINITY] {
+            assert_eq!(cap_share(v), 1.0);
+        }
+        assert_eq!(cap_share(f32::NAN), 0.0);
     }
 
     /// A light's share of the lobe is a fraction: finite and in [0, 1] for
@@ -282,6 +318,14 @@ mod tests {
                             g.is_finite() && (0.0..=1.0).contains(&g),
                             "alpha {alpha}, cos_o {cos_o}, k {k}, omc {omc}: share {g}"
                         );
+                        // before the cap: finite unless grazing, where it
+                        // is +∞ (a cap that hides NaN or ∞ cannot see them)
+                        let raw = lobe_share(alpha, wo, n, to_c, d2, omc);
+                        assert!(
+                            raw >= 0.0 && (raw.is_finite() || cos_o == 0.0),
+                            "alpha {alpha}, cos_o {cos_o}, k {k}, omc {omc}: uncapped share {raw}"
+                        );
+                        assert_eq!(g.to_bits(), cap_share(raw).to_bits());
                     }
                 }
             }

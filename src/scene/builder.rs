@@ -104,7 +104,9 @@ impl<const S: usize, const P: usize, const M: usize> Lists<'_, S, P, M> {
             // zero, or so small/large that normalising would fail
             let n = normal * (1.0 / normal.abs().max_component());
             if !(n.length_squared() > 0.0) || !n.is_finite() {
-                return Err(SceneError::OutOfRange("plane normal (zero)"));
+                return Err(SceneError::OutOfRange(
+                    "plane normal (zero, or its largest component under 2.9e-39: too small to normalise)",
+                ));
             }
             return self.plane(point, n, m);
         }
@@ -433,7 +435,9 @@ mod tests {
         );
         assert_eq!(
             b.plane(Vec3::ZERO, Vec3::ZERO, lamp),
-            Err(SceneError::OutOfRange("plane normal (zero)"))
+            Err(SceneError::OutOfRange(
+                "plane normal (zero, or its largest component under 2.9e-39: too small to normalise)"
+            ))
         );
         assert_eq!(
             b.sphere(Vec3::ZERO, 1.0, MaterialId(7)),
