@@ -72,20 +72,38 @@ impl TileAccum {
     }
 
     /// Adds samples `count[i] .. count[i] + k` to every pixel `i` of
-    /// `pixels`, each pixel's in turn. One call for a whole round of the
-    /// tile: what the integrator loads once per call (the scene's arrays,
-    /// the options) is loaded once per round, not once per sample.
+    /// `pixels`, each pixel's in turn, where `k` is `shares[i]` (which is
+    /// lowered by what is added), or 1 for every pixel when `shares` is
+    /// empty; at most `limit` samples in all, the last pixel's cut short.
+    /// Returns the samples added. One call for a whole round of the tile
+    /// (or a clock check's batch of it): what the integrator loads once per
+    /// call (the scene's arrays, the options) is loaded once per round, not
+    /// once per sample or pixel.
     #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
     fn add(
         &mut self,
         r: &Renderer<'_>,
         tile: &Tile,
         pixels: core::ops::Range<usize>,
-        k: u32,
+        shares: &mut [u32],
+        limit: u32,
         stats: &mut Stats,
-    ) {
+    ) -> u32 {
         let w = tile.w.max(1);
+        let mut added = 0u32;
         for i in pixels {
+            let k = match shares.get_mut(i) {
+                Some(s) => {
+                    let k = (*s).min(limit - added);
+                    *s -= k;
+                    k
+                }
+                None => 1,
+            };
+            if k == 0 {
+                continue;
+            }
             let i32 = i as u32;
             let (x, y) = (
                 tile.x.saturating_add(i32 % w),
@@ -96,7 +114,7 @@ impl TileAccum {
                 self.lum2.get_mut(i),
                 self.count.get_mut(i),
             ) else {
-                return;
+                break;
             };
             let pixel = r.pixel(x, y);
             for _ in 0..k {
@@ -106,7 +124,12 @@ impl TileAccum {
                 *l2 += l * l;
                 *n += 1;
             }
+            added += k;
+            if added == limit {
+                break;
+            }
         }
+        added
     }
 
     /// Unbiased sample variance of pixel `i`'s luminance (0 below 2 samples).
@@ -142,8 +165,15 @@ fn cumulative_share(total: u64, cum: f32, cum_total: f32, last: bool) -> u64 {
     if last || !(cum_total > 0.0) {
         return if last { total } else { 0 };
     }
-    let a = total as f32 * (cum / cum_total);
-    math::clamp(math::floor(a), 0.0, total as f32) as u64
+    let t = total as f32;
+    let v = math::clamp(math::floor(t * (cum / cum_total)), 0.0, t);
+    // `v as u64`, through a 32-bit conversion (one instruction on a 32-bit
+    // core, not a runtime call) where that is the same
+    if v < 4_294_967_296.0 {
+        u64::from(v as u32)
+    } else {
+        v as u64
+    }
 }
 
 /// The split of `total` samples over `n` items with weights `w(i)` (NaN and
@@ -200,7 +230,7 @@ impl Renderer<'_> {
     /// Pass 1 for `tile`: sample 0 of every pixel into `acc` (reset first).
     pub fn preview_tile(&self, tile: &Tile, acc: &mut TileAccum, stats: &mut Stats) {
         acc.reset(tile.len());
-        acc.add(self, tile, 0..acc.len, 1, stats);
+        acc.add(self, tile, 0..acc.len, &mut [], u32::MAX, stats);
     }
 
     /// Pass 2 for `tile`: spends `extra` more samples on the pixels of `acc`
@@ -253,8 +283,15 @@ impl Renderer<'_> {
             // are left
             let take = (extra - spent).min(n as u64) as usize;
             let head = (start + take).min(n);
-            acc.add(self, tile, start..head, 1, stats);
-            acc.add(self, tile, 0..take - (head - start), 1, stats);
+            acc.add(self, tile, start..head, &mut [], u32::MAX, stats);
+            acc.add(
+                self,
+                tile,
+                0..take - (head - start),
+                &mut [],
+                u32::MAX,
+                stats,
+            );
             spent += take as u64;
             // at most n <= BATCH samples since the look above
             since_check = spent - before;
@@ -292,22 +329,29 @@ impl Renderer<'_> {
                     *x = s.min(u64::from(u32::MAX)) as u32;
                 }
             });
-            for (i, &k) in shares.iter().enumerate().take(n) {
-                // at most BATCH samples between two looks at the clock
-                let mut k = k;
-                while k > 0 {
-                    if since_check >= BATCH {
-                        if stop(spent) {
-                            return spent;
-                        }
-                        since_check = 0;
-                    }
-                    let chunk = k.min((BATCH - since_check) as u32);
-                    acc.add(self, tile, i..i + 1, chunk, stats);
-                    spent += u64::from(chunk);
-                    since_check += u64::from(chunk);
-                    k -= chunk;
+            // the shares pixel by pixel, at most BATCH samples between two
+            // looks at the clock: one call of `add` per batch
+            let mut next = 0usize;
+            loop {
+                while shares.get(next).is_some_and(|&k| k == 0) {
+                    next += 1;
                 }
+                if next >= n {
+                    break;
+                }
+                if since_check >= BATCH {
+                    if stop(spent) {
+                        return spent;
+                    }
+                    since_check = 0;
+                }
+                let limit = (BATCH - since_check) as u32;
+                let done = acc.add(self, tile, next..n, &mut shares, limit, stats);
+                if done == 0 {
+                    break;
+                }
+                spent += u64::from(done);
+                since_check += u64::from(done);
             }
         }
         spent
@@ -369,4 +413,34 @@ pub fn tile_share(width: u32, height: u32, total: u64, i: usize) -> u64 {
     let upto = |k: usize| cumulative_share(total, cum(k) as f32, pixels, k + 1 == n);
     let before = if i == 0 { 0 } else { upto(i - 1) };
     upto(i).saturating_sub(before)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The share's conversion through `u32` gives what the direct `as u64`
+    /// gives, below, at and above 2^32 (totals of a whole image can pass
+    /// it).
+    #[test]
+    fn cumulative_share_converts_as_u64_does() {
+        for total in [
+            0u64,
+            1,
+            1000,
+            (1 << 32) - 1,
+            1 << 32,
+            (1 << 32) + 1,
+            1 << 40,
+            u64::MAX,
+        ] {
+            let t = total as f32;
+            for k in 0..=64u32 {
+                let (cum, cum_total) = (k as f32, 64.0);
+                let want = math::clamp(math::floor(t * (cum / cum_total)), 0.0, t) as u64;
+                let got = cumulative_share(total, cum, cum_total, false);
+                assert_eq!(got, want, "total {total}, {k}/64");
+            }
+        }
+    }
 }
