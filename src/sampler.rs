@@ -8,10 +8,9 @@
 //!   sample) are three independently Owen-scrambled 2-D Sobol sequences,
 //!   indexed by the sample number: every prefix of 2^k samples is stratified
 //!   in each 2-D pair (Burley 2020, "Practical Hash-based Owen Scrambling");
-//! * the remaining dimensions come from Marsaglia's xorshift128 (`Xorshift128`,
-//!   the sequence of `rand_xorshift`'s `XorShiftRng`), whose four state words
-//!   are two 32-bit hashes of the same triple and their values after the
-//!   first multiply.
+//! * the remaining dimensions come from `rand_xorshift`'s `XorShiftRng`
+//!   (Marsaglia's xorshift128), whose four state words are two 32-bit hashes
+//!   of the same triple and their values after the first multiply.
 //!
 //! What depends on the pixel only (the scramble seeds of the Sobol pairs and
 //! the key of the generators) is computed once per pixel by
@@ -20,6 +19,8 @@
 //! on a Cortex-M4 a 64-bit multiply is several instructions.
 
 use crate::math;
+use rand_core::{Rng, SeedableRng};
+use rand_xorshift::XorShiftRng;
 
 /// splitmix64's finaliser: a bijective 64-bit mixer.
 #[inline(always)]
@@ -235,40 +236,19 @@ impl PixelSampler {
         // xor-shifted, xor word k - 1 xor-shifted, so all four words must
         // vary from sample to sample, and not linearly in each other, or
         // consecutive draws would be tied. One word is made odd: the state
-        // is never zero (which xorshift cannot leave).
+        // is never zero (which xorshift cannot leave, and which `from_seed`
+        // would replace by a fixed seed).
         let (x, z) = hash32_halves(a ^ index);
         let (y, w) = hash32_halves(b.wrapping_add(index.wrapping_mul(0x9e37_79b9)));
+        let mut seed = [0u8; 16];
+        for (dst, word) in seed.chunks_exact_mut(4).zip([x, y | 1, z, w]) {
+            dst.copy_from_slice(&word.to_le_bytes());
+        }
         SampleStream {
             pixel: self,
             index,
-            rng: Xorshift128 { x, y: y | 1, z, w },
+            rng: XorShiftRng::from_seed(seed),
         }
-    }
-}
-
-/// Marsaglia's xorshift128 ("Xorshift RNGs", 2003, the example of its
-/// summary): the sequence of `rand_xorshift`'s `XorShiftRng` seeded with the
-/// same four words. Here rather than through that crate, whose `from_seed`
-/// takes the words as bytes and compares them with zero (a call to `memcmp`
-/// per path on a Cortex-M4): the streams make one word odd, so the state is
-/// never zero, which xorshift cannot leave.
-#[derive(Debug, Clone)]
-struct Xorshift128 {
-    x: u32,
-    y: u32,
-    z: u32,
-    w: u32,
-}
-
-impl Xorshift128 {
-    #[inline(always)]
-    fn next_u32(&mut self) -> u32 {
-        let t = self.x ^ (self.x << 11);
-        self.x = self.y;
-        self.y = self.z;
-        self.z = self.w;
-        self.w = self.w ^ (self.w >> 19) ^ (t ^ (t >> 8));
-        self.w
     }
 }
 
@@ -287,7 +267,7 @@ impl Xorshift128 {
 pub struct SampleStream<'p> {
     pixel: &'p PixelSampler,
     index: u32,
-    rng: Xorshift128,
+    rng: XorShiftRng,
 }
 
 impl SampleStream<'_> {
@@ -327,7 +307,7 @@ impl SampleStream<'_> {
 
 /// The independent part of a sample's stream as a `rand_core` generator,
 /// for code that takes any [`rand_core::Rng`] (the same numbers as
-/// [`SampleStream::next_u32`], i.e. as the stream's xorshift128).
+/// [`SampleStream::next_u32`], i.e. as the stream's `XorShiftRng`).
 ///
 /// ```
 /// use micropt::sampler::{PixelSampler, pixel_key};
@@ -585,34 +565,6 @@ mod tests {
                     let chi2: f32 = g.iter().map(|&c| (c as f32 - e) * (c as f32 - e) / e).sum();
                     assert!(chi2 < 120.0, "draws {k} and {}: chi2 {chi2}", k + lag);
                 }
-            }
-        }
-    }
-
-    /// The streams' xorshift128 is Marsaglia's, as `rand_xorshift` has it:
-    /// the same words from the same seed (its seed bytes are the words,
-    /// little-endian), for seeds with a zero, an all-ones and a random word.
-    #[test]
-    fn xorshift128_is_rand_xorshifts() {
-        use rand_core::{Rng, SeedableRng};
-        let mut z = 0x0123_4567_89ab_cdefu64;
-        for k in 0..64u32 {
-            z = mix64(z);
-            let words = [
-                z as u32,
-                (z >> 32) as u32 | 1,
-                if k % 2 == 0 { 0 } else { u32::MAX },
-                hash32(k),
-            ];
-            let mut seed = [0u8; 16];
-            for (dst, w) in seed.chunks_exact_mut(4).zip(words) {
-                dst.copy_from_slice(&w.to_le_bytes());
-            }
-            let mut reference = rand_xorshift::XorShiftRng::from_seed(seed);
-            let [x, y, z, w] = words;
-            let mut ours = Xorshift128 { x, y, z, w };
-            for _ in 0..100 {
-                assert_eq!(ours.next_u32(), reference.next_u32());
             }
         }
     }
