@@ -56,14 +56,11 @@ impl core::fmt::Display for SceneError {
             }
             SceneError::NoCamera => f.write_str("the scene has no camera"),
             SceneError::SecondCamera => f.write_str("a second camera (exactly one is allowed)"),
-            SceneError::Camera(CameraError::EyeEqualsTarget) => f.write_str(
-                "camera eye equals target, or their distance squared is not a normal f32 \
-                 (a distance outside about 1.1e-19 .. 1.8e19)",
-            ),
+            SceneError::Camera(CameraError::EyeEqualsTarget) => {
+                f.write_str("camera eye to target: distance squared is not a normal f32")
+            }
             SceneError::Camera(CameraError::UpParallelToView) => f.write_str(
-                "camera up vector is parallel to the view direction (the sine of their angle \
-                 under 1e-6), or its length squared is 0 or not finite in f32 (a length \
-                 outside about 4e-23 .. 1.8e19)",
+                "camera up vector: length squared is 0 or not finite, or sine of its angle to the view under 1e-6",
             ),
             SceneError::Camera(CameraError::FovOutOfRange) => {
                 f.write_str("vertical field of view must be in (0, 180) degrees")
