@@ -14,7 +14,7 @@ use embedded_hal::digital::{OutputPin, PinState};
 use micropt::budget::TileAccum;
 use micropt::film::FromEncoded;
 use micropt::multicore::{Pass, SharedError, WorkQueue, render_shared, wait_all};
-use micropt::{AdaptiveOptions, Budget, Renderer};
+use micropt::{AdaptiveOptions, Budget, Renderer, Scene};
 
 /// The init steps; a failed one is logged and blinked on the red LED (its
 /// number of blinks, a pause, again).
@@ -70,6 +70,42 @@ pub fn fail<P: OutputPin>(led: &mut Led<P>, step: Step) -> ! {
         }
         cortex_m::asm::delay(100_000_000);
     }
+}
+
+/// The scene, parsed on the board.
+const SCENE_TEXT: &str = include_str!("../../scenes/cornell.scene");
+/// Fixed capacities: enough for cornell.scene (3 spheres, 6 planes, 6
+/// materials); a bigger scene gives a capacity error, not a panic.
+type BoardScene = Scene<4, 8, 8>;
+
+/// Static memory and the renderer: the scene parsed in place, one tile of
+/// accumulators per core, and the renderer of a `width` × `height` image
+/// with `seed`. A failed step is logged and blinked on `led`.
+pub fn setup<P: OutputPin>(
+    led: &mut Led<P>,
+    width: u32,
+    height: u32,
+    seed: u64,
+) -> (
+    Renderer<'static>,
+    &'static mut TileAccum,
+    &'static mut TileAccum,
+) {
+    let (Some(scene), Some(acc0), Some(acc1)) = (
+        cortex_m::singleton!(: BoardScene = BoardScene::EMPTY),
+        cortex_m::singleton!(: TileAccum = TileAccum::new()),
+        cortex_m::singleton!(: TileAccum = TileAccum::new()),
+    ) else {
+        fail(led, Step::Memory)
+    };
+    if micropt::parse::parse_into(SCENE_TEXT, scene).is_err() {
+        fail(led, Step::Scene)
+    }
+    let scene: &'static BoardScene = scene;
+    let Ok(renderer) = Renderer::new(scene, width, height) else {
+        fail(led, Step::Renderer)
+    };
+    (renderer.seed(seed), acc0, acc1)
 }
 
 /// Logs how far the frame has come.

@@ -67,10 +67,9 @@ use hal::gpio::bank0::{Gpio16, Gpio17, Gpio18, Gpio19};
 use hal::gpio::{FunctionSioOutput, FunctionSpi, Pin, PinState, PullDown};
 use hal::multicore::{Multicore, Stack};
 use locked_panel::LockedPanel;
-use micropt::budget::TileAccum;
+use micropt::Budget;
 use micropt::film::tile_count;
 use micropt::multicore::AtomicQueue;
-use micropt::{Budget, Renderer, Scene};
 use mipidsi::interface::SpiInterface;
 use mipidsi::models::ST7789;
 use mipidsi::options::{ColorInversion, Orientation, Rotation};
@@ -96,11 +95,6 @@ const HEIGHT: u32 = 240;
 const BUDGET: Budget = Budget::Spp(16);
 /// Render seed.
 const SEED: u64 = 0;
-/// The scene, parsed on the board.
-const SCENE_TEXT: &str = include_str!("../../../../scenes/cornell.scene");
-/// Fixed capacities: enough for cornell.scene (3 spheres, 6 planes, 6
-/// materials); a bigger scene gives a capacity error, not a panic.
-type BoardScene = Scene<4, 8, 8>;
 
 type Spi0 = hal::spi::Spi<
     hal::spi::Enabled,
@@ -230,23 +224,7 @@ fn main() -> ! {
             .replace(Progress::new(panel, tiles, report))
     });
 
-    // static memory: the scene (parsed in place) and one tile of
-    // accumulators per core
-    let (Some(scene), Some(acc0), Some(acc1)) = (
-        cortex_m::singleton!(: BoardScene = BoardScene::EMPTY),
-        cortex_m::singleton!(: TileAccum = TileAccum::new()),
-        cortex_m::singleton!(: TileAccum = TileAccum::new()),
-    ) else {
-        fail(&mut led, Step::Memory)
-    };
-    if micropt::parse::parse_into(SCENE_TEXT, scene).is_err() {
-        fail(&mut led, Step::Scene)
-    }
-    let scene: &'static BoardScene = scene;
-    let Ok(renderer) = Renderer::new(scene, WIDTH, HEIGHT) else {
-        fail(&mut led, Step::Renderer)
-    };
-    let renderer = renderer.seed(SEED);
+    let (renderer, acc0, acc1) = pico::setup(&mut led, WIDTH, HEIGHT, SEED);
     let size = Size::new(WIDTH, HEIGHT);
 
     led.set(BLUE);
