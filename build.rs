@@ -47,7 +47,11 @@
 //!   of those statements in the file, so the firmware's static RAM is what
 //!   that scene needs; a scene of fewer spheres than the bounding volume
 //!   hierarchy's threshold gets the `micropt_no_bvh` cfg, which leaves the
-//!   tree's code out.
+//!   tree's code out, and a scene of at most one sphere with a `light`
+//!   material (built with the `specialize` skip on) gets the
+//!   `micropt_one_light` cfg, which leaves out the integrator's
+//!   several-lights variant (light choice, its pdfs, the outlined shadow
+//!   test).
 
 use std::env;
 use std::fs;
@@ -56,6 +60,7 @@ use std::path::{Path, PathBuf};
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo::rustc-check-cfg=cfg(micropt_no_bvh)");
+    println!("cargo::rustc-check-cfg=cfg(micropt_one_light)");
     let firmware = env::var_os("CARGO_FEATURE_FIRMWARE").is_some();
     let board = env::var_os("CARGO_FEATURE_BOARD_ST7789").is_some();
     let bare_metal = env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none");
@@ -216,11 +221,26 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
     // board reports a capacity error, not a panic, if this count were short)
     let (mut spheres, mut planes, mut materials) = (0usize, 0usize, 0usize);
     let mut resolution = None;
+    // names of `light` materials, and the spheres that use one (a sphere
+    // names its material last: `sphere X Y Z R NAME`)
+    let mut light_names: Vec<&str> = Vec::new();
+    let mut light_spheres = 0usize;
     for line in text.lines() {
         let code = line.split('#').next().unwrap_or("");
         let toks: Vec<&str> = code.split_whitespace().collect();
         match toks.first().copied() {
-            Some("sphere") => spheres += 1,
+            Some("material") if toks.get(2) == Some(&"light") => {
+                materials += 1;
+                if let Some(&name) = toks.get(1) {
+                    light_names.push(name);
+                }
+            }
+            Some("sphere") => {
+                spheres += 1;
+                if toks.last().is_some_and(|m| light_names.contains(m)) {
+                    light_spheres += 1;
+                }
+            }
             Some("plane") => planes += 1,
             Some("material") => materials += 1,
             Some("resolution") if toks.len() == 3 => {
@@ -309,6 +329,16 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
             )
         })?;
         skip_on[i] = false;
+    }
+    // one light at most, and the integrator's one-light variant in use
+    // (`specialize` on): the several-lights variant is never run, so leave
+    // it out (about 9 KB of flash on a Cortex-M4F)
+    let specialize = SKIPS
+        .iter()
+        .zip(skip_on)
+        .any(|(n, on)| *n == "specialize" && on);
+    if light_spheres <= 1 && specialize {
+        println!("cargo:rustc-cfg=micropt_one_light");
     }
     let skip_fields: String = SKIPS
         .iter()

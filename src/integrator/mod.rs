@@ -268,7 +268,9 @@ pub(crate) fn radiance_planned(
     // the plan: so the tree's variants know that the view has a tree, and
     // hold no list query for the case without one.)
     let tree = !cfg!(micropt_no_bvh) && scene.bvh.is_some();
-    match (plan.many, tree) {
+    // a firmware for one light has no several-lights variant
+    let many = !cfg!(micropt_one_light) && plan.many;
+    match (many, tree) {
         (true, false) => trace::<true, false>(&ctx, ray, stream, opts, stats),
         (false, false) => trace::<false, false>(&ctx, ray, stream, opts, stats),
         (true, true) => trace::<true, true>(&ctx, ray, stream, opts, stats),

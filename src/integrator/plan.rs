@@ -62,8 +62,12 @@ impl<'a> PathPlan<'a> {
         };
         // no light at all: the general variant, which runs fewer
         // instructions there than the one-light variant (docs/bench.md) and
-        // draws the same numbers
-        let many = lights.len() != 1 || !skip.specialize;
+        // draws the same numbers. A firmware built for a scene of one light
+        // at most (`micropt_one_light`) has only the one-light variant: with
+        // no light it draws the same numbers there, and should the scene
+        // have several lights after all, it samples none of them (`one` is
+        // empty): BSDF sampling alone, unbiased but noisier
+        let many = !cfg!(micropt_one_light) && (lights.len() != 1 || !skip.specialize);
         let windows: &[Window] = if cfg!(feature = "windows") && skip.windows {
             scene.windows
         } else {
@@ -74,7 +78,7 @@ impl<'a> PathPlan<'a> {
             many,
             horizon_planes: skip.horizon && scene.horizon_planes,
             horizon_spheres: skip.horizon && scene.horizon_spheres,
-            one: if many {
+            one: if many || lights.len() != 1 {
                 None
             } else {
                 OneLight::first(scene, lights, windows)
