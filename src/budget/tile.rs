@@ -165,8 +165,15 @@ fn cumulative_share(total: u64, cum: f32, cum_total: f32, last: bool) -> u64 {
     if last || !(cum_total > 0.0) {
         return if last { total } else { 0 };
     }
-    let a = total as f32 * (cum / cum_total);
-    math::clamp(math::floor(a), 0.0, total as f32) as u64
+    let t = total as f32;
+    let v = math::clamp(math::floor(t * (cum / cum_total)), 0.0, t);
+    // `v as u64`, through a 32-bit conversion (one instruction on a 32-bit
+    // core, not a runtime call) where that is the same
+    if v < 4_294_967_296.0 {
+        u64::from(v as u32)
+    } else {
+        v as u64
+    }
 }
 
 /// The split of `total` samples over `n` items with weights `w(i)` (NaN and
@@ -406,4 +413,34 @@ pub fn tile_share(width: u32, height: u32, total: u64, i: usize) -> u64 {
     let upto = |k: usize| cumulative_share(total, cum(k) as f32, pixels, k + 1 == n);
     let before = if i == 0 { 0 } else { upto(i - 1) };
     upto(i).saturating_sub(before)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The share's conversion through `u32` gives what the direct `as u64`
+    /// gives, below, at and above 2^32 (totals of a whole image can pass
+    /// it).
+    #[test]
+    fn cumulative_share_converts_as_u64_does() {
+        for total in [
+            0u64,
+            1,
+            1000,
+            (1 << 32) - 1,
+            1 << 32,
+            (1 << 32) + 1,
+            1 << 40,
+            u64::MAX,
+        ] {
+            let t = total as f32;
+            for k in 0..=64u32 {
+                let (cum, cum_total) = (k as f32, 64.0);
+                let want = math::clamp(math::floor(t * (cum / cum_total)), 0.0, t) as u64;
+                let got = cumulative_share(total, cum, cum_total, false);
+                assert_eq!(got, want, "total {total}, {k}/64");
+            }
+        }
+    }
 }
