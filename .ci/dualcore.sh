@@ -25,13 +25,14 @@ BLESS=0
 if [ "${1:-}" = "--bless" ]; then BLESS=1; fi
 
 TARGET=thumbv8m.main-none-eabihf
-OUT=target/dualcore
+OUT=${DUALCORE_OUT:-target/dualcore}
 ELF=target/$TARGET/release/examples/dualcore
 QEMU=(qemu-system-arm -machine mps2-an521 -global sse-200.CPU0_FPU=true
     -global sse-200.CPU0_DSP=true -nographic
     -semihosting-config enable=on,target=native -icount shift=0)
 SCENE=scenes/cornell.scene
-SIZE=64x64
+# DUALCORE_SIZE: another image size (tools/frame.sh measures 240x240)
+SIZE=${DUALCORE_SIZE:-64x64}
 SPP=16
 mkdir -p "$OUT"
 
@@ -69,7 +70,7 @@ run() {
         MICROPT_FW_CORES="$cores" MICROPT_FW_OUT="$OUT/cores$cores.board.rgb565" \
         cargo build -p micropt --release --example dualcore --features firmware-an521 --target "$TARGET"
     rm -f "$OUT/cores$cores.board.rgb565"
-    timeout 300 "${QEMU[@]}" -plugin "$OUT/libicount.so" -d plugin -D "$OUT/cores$cores.icount" \
+    timeout 1800 "${QEMU[@]}" -plugin "$OUT/libicount.so" -d plugin -D "$OUT/cores$cores.icount" \
         -kernel "$ELF" >"$OUT/cores$cores.run" || status=$?
     cat "$OUT/cores$cores.run" "$OUT/cores$cores.icount"
     [ "$status" = 0 ] || fail "$cores core(s): the firmware exited with status $status"
@@ -113,7 +114,7 @@ speedup_path=$(awk -v a="$single" -v b="$path" 'BEGIN { printf "%.3f", a / b }')
 insns1=$(sed -n 's/^insns: //p' "$OUT/cores1.icount")
 insns2=$(sed -n 's/^insns: //p' "$OUT/cores2.icount")
 {
-    echo "# examples/dualcore, release, cornell.scene 64x64, Budget::Spp(16) adaptive, seed 0"
+    echo "# examples/dualcore, release, cornell.scene $SIZE, Budget::Spp(16) adaptive, seed 0"
     echo "# (QEMU mps2-an521, both Cortex-M33 with FPU, -icount shift=0); written by"
     echo "# .ci/dualcore.sh; executed instructions per core (tiles dealt out in turn)"
     echo "one_core_render: $single  (MICROPT_FW_CORES=1: previews and refinement on core 0)"

@@ -83,15 +83,16 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
     let mut pending: Option<Branch> = None;
     // one pass per branch: without glass, exactly one
     #[cfg_attr(not(feature = "glass"), allow(clippy::never_loop))]
+    // one inlined query for every ray, with the camera ray's sphere list
+    // when culling (a camera ray leaves no object), the bounce rays' list
+    // from the first bounce on (a split path's other branch starts later)
+    let mut spheres = if opts.skip.view_culling {
+        scene.tested_primary
+    } else {
+        scene.tested
+    };
     loop {
         loop {
-            // one inlined query for every ray, with the camera ray's sphere
-            // list when culling (a camera ray leaves no object)
-            let spheres = if depth == 0 && opts.skip.view_culling {
-                scene.tested_primary
-            } else {
-                scene.tested
-            };
             let found = if opts.skip.slabs {
                 scene.closest_hit_in::<TREE>(&ray, from, spheres)
             } else {
@@ -347,6 +348,7 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                 Scatter::Absorb => break,
             }
             depth += 1;
+            spheres = scene.tested;
             if depth >= opts.rr_start {
                 let p = thr.max_component() * rr_scale * opts.rr_gain;
                 if p < 1.0 {
