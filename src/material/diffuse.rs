@@ -16,12 +16,13 @@ pub(crate) fn validate(albedo: Color) -> Result<(), SceneError> {
 /// [0,1)²; its pdf is `cos θ / π`. Returns `(direction, cos θ)`.
 ///
 /// Malley's method: a uniform point of the unit disk
-/// ([`concentric_disk`]) lifted to the hemisphere, `cos θ = √(1 − ρ²)`
-/// (> 0 for inputs in [0,1)).
+/// ([`concentric_disk`]) lifted to the hemisphere, `cos θ = √(1 − ρ²)`.
+/// For inputs in [0,1) (the samplers' multiples of 2⁻²⁴) `ρ² ≤ 1 − 2⁻²³`
+/// after rounding, so `1 − ρ²` is positive without a clamp.
 #[inline(always)]
 pub fn sample_cosine(n: Vec3, u1: f32, u2: f32, fast: bool) -> (Vec3, f32) {
     let (x, y, r2) = concentric_disk(u1, u2, fast);
-    let cos_t = math::sqrt(math::max(1.0 - r2, 0.0));
+    let cos_t = math::sqrt(1.0 - r2);
     let (t, b) = n.basis();
     (t * x + b * y + n * cos_t, cos_t)
 }
@@ -65,6 +66,25 @@ mod tests {
             let (d, c) = sample_cosine(n, i as f32 / 64.0, (i * 7 % 64) as f32 / 64.0, false);
             assert!(math::abs(d.length() - 1.0) < 1e-6);
             assert!(math::abs(d.dot(n) - c) < 1e-6 && c > 0.0);
+        }
+    }
+
+    /// `sample_cosine` takes `√(1 − ρ²)` without a clamp: at the samplers'
+    /// extreme inputs (multiples of 2⁻²⁴ in [0, 1)) the rounded `ρ²` stays
+    /// below 1, so the cosine is positive and finite.
+    #[test]
+    fn extreme_sampler_inputs_give_a_positive_cosine() {
+        let edge = [0.0, 1.0 / 16_777_216.0, 0.5, 1.0 - 1.0 / 16_777_216.0];
+        for u1 in edge {
+            for u2 in edge {
+                let (_, _, r2) = concentric_disk(u1, u2, false);
+                assert!(1.0 - r2 > 0.0, "{u1} {u2}: rho^2 {r2}");
+                let (d, c) = sample_cosine(Vec3::new(0.0, 1.0, 0.0), u1, u2, false);
+                assert!(
+                    c > 0.0 && c.is_finite() && d.length().is_finite(),
+                    "{u1} {u2}: {c}"
+                );
+            }
         }
     }
 }
