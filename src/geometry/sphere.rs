@@ -221,7 +221,17 @@ impl Sphere {
     pub fn hit(&self, ray: &Ray, t: f32, id: ObjectId) -> Hit {
         let p0 = ray.origin + ray.dir * t;
         if self.radius > HUGE * p0.abs().max_component() {
-            return self.hit_huge(p0, t, id);
+            // the parts come back in a temporary of their own, so that the
+            // common path's record can stay in registers
+            let (point, normal, error) = self.hit_huge(p0);
+            return Hit {
+                t,
+                point,
+                normal,
+                error,
+                object: id,
+                material: self.material,
+            };
         }
         let mut local = ray.origin - self.center + ray.dir * t;
         let len = local.length();
@@ -245,8 +255,9 @@ impl Sphere {
         }
     }
 
-    /// The hit record of a sphere at least [`HUGE`] times larger than the
-    /// coordinates of the point `p0 = o + t·d`.
+    /// The point, normal and error bound of the hit record of a sphere at
+    /// least [`HUGE`] times larger than the coordinates of the point
+    /// `p0 = o + t·d`.
     ///
     /// Re-projecting through the centre would round the point at the
     /// centre's scale (ulp(1e5) = 1/128 for smallpt's walls): an error bound
@@ -261,7 +272,7 @@ impl Sphere {
     /// applied to it (γ(8)·|s|) and the curvature left by a straight step
     /// (s²/(2r), with no effect at this scale but kept for rigour).
     #[inline(never)]
-    fn hit_huge(&self, p0: Vec3, t: f32, id: ObjectId) -> Hit {
+    fn hit_huge(&self, p0: Vec3) -> (Vec3, Vec3, f32) {
         let local = p0 - self.center;
         let len = local.length();
         let normal = local * (1.0 / len);
@@ -271,14 +282,7 @@ impl Sphere {
         let error = (point.abs() * math::gamma(5)).dot(normal.abs())
             + s_abs * math::gamma(8)
             + s_abs * s_abs * (0.5 / self.radius);
-        Hit {
-            t,
-            point,
-            normal,
-            error,
-            object: id,
-            material: self.material,
-        }
+        (point, normal, error)
     }
 }
 
