@@ -111,7 +111,10 @@ pub(super) fn nee<const MANY: bool, const TREE: bool, B: Lobe>(
     } else if lists {
         scene.occluded_in::<TREE>(&shadow, ls.dist, hit.object, target)
     } else {
-        scene.occluded_by_any(&shadow, ls.dist, hit.object, target)
+        // a copy for the out-of-line test: a ray whose address a call
+        // takes lives in memory, on the inlined test's path too
+        let copy = Ray::new(shadow.origin, shadow.dir);
+        scene.occluded_by_any(&copy, ls.dist, hit.object, target)
     };
     if blocked {
         return Color::ZERO;

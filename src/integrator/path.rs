@@ -10,7 +10,7 @@ use super::plan::{Ctx, PrevVertex, window_of};
 #[cfg(feature = "glass")]
 use super::split::{Branch, split_at_glass};
 use super::{Options, Strategy, power_heuristic};
-use crate::geometry::{Color, ObjectId, Ray, Vec3};
+use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3};
 use crate::material::{Bsdf, Lambert, Lobe, Scatter};
 use crate::math;
 use crate::sampler::SampleStream;
@@ -96,7 +96,19 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
             let found = if opts.skip.slabs {
                 scene.closest_hit_in::<TREE>(&ray, from, spheres)
             } else {
-                scene.closest_hit_any_among(&ray, from, spheres)
+                // the out-of-line query's record comes back through memory:
+                // rebuilt field by field, so that the inlined query's
+                // record need not live there too
+                scene
+                    .closest_hit_any_among(&ray, from, spheres)
+                    .map(|h| Hit {
+                        t: h.t,
+                        point: h.point,
+                        normal: h.normal,
+                        error: h.error,
+                        object: h.object,
+                        material: h.material,
+                    })
             };
             let Some(hit) = found else {
                 if scene.closed && opts.skip.closed {
