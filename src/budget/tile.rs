@@ -362,15 +362,18 @@ impl Renderer<'_> {
     /// [`AdaptiveOptions::prior`] samples).
     fn pixel_sigmas(&self, acc: &TileAccum, opts: &AdaptiveOptions) -> [f32; TILE_PIXELS] {
         let n = acc.len;
+        // each variance computed once, kept in `sig` until it becomes the
+        // pixel's sigma
+        let mut sig = [0.0f32; TILE_PIXELS];
         let mut mean_var = 0.0f32;
-        for i in 0..n {
-            mean_var += acc.variance(i);
+        for (i, s) in sig.iter_mut().enumerate().take(n) {
+            *s = acc.variance(i);
+            mean_var += *s;
         }
         mean_var /= math::max(n as f32, 1.0);
-        let mut sig = [0.0f32; TILE_PIXELS];
         for (i, s) in sig.iter_mut().enumerate().take(n) {
             let k = acc.count(i).saturating_sub(1) as f32;
-            *s = math::sqrt((acc.variance(i) * k + opts.prior * mean_var) / (k + opts.prior));
+            *s = math::sqrt((*s * k + opts.prior * mean_var) / (k + opts.prior));
         }
         sig
     }
