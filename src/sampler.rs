@@ -354,11 +354,12 @@ pub fn concentric_disk(u1: f32, u2: f32, fast: bool) -> (f32, f32, f32) {
     const ONE_BELOW: f32 = 1.0 - 1.0 / 16_777_216.0;
     let a = 2.0 * u1 - ONE_BELOW;
     let b = 2.0 * u2 - ONE_BELOW;
-    let (r, q, swap) = if math::abs(a) > math::abs(b) {
-        (a, b / a, false)
-    } else {
-        (b, a / b, true)
-    };
+    // the larger magnitude is the radius: one quotient of the chosen pair
+    // (not both quotients and a choice between them, which is what the
+    // compiler makes of two quotients in two branches)
+    let swap = !(math::abs(a) > math::abs(b));
+    let (r, other) = if swap { (b, a) } else { (a, b) };
+    let q = other / r;
     let phi = q * (0.25 * math::PI);
     let (s, c) = if fast {
         math::fast_sincos_quarter(phi)
