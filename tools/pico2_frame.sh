@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# The Pico 2's frame time, estimated from the Cortex-M33 firmware's QEMU
+# profile (docs/pico2-frame.md): tools/pico2_frame.sh [SIZE]
+#
+# Builds examples/firmware for the M33 (QEMU mps2-an505) with cornell.scene
+# at SIZE (default 32x32, as .ci/targets.sh), 16 spp, seed 0, cornell's
+# features; runs it under tools/profile.sh (per-instruction counts, taken
+# branches, code-region reads, XIP cache model) and prints tools/cpi.py's
+# instruction mix, cycles per path and frame times: 240x240 (979,200 paths)
+# and the Pico 2 panel's 320x240 (1,305,600), at 150 MHz over two cores (the
+# AN521 speed-up of target/dualcore/an521.size if .ci/dualcore.sh ran, else
+# firmware/expected/an521.size). Output in target/pico2-frame/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+size=${1:-32x32}
+out=target/pico2-frame
+mkdir -p "$out"
+MICROPT_FW_MACHINE=mps2-an505 MICROPT_FW_SCENE=scenes/cornell.scene MICROPT_FW_SIZE="$size" \
+    MICROPT_FW_SPP=16 MICROPT_FW_SEED=0 MICROPT_FW_OUT="$out/cornell.rgb565" \
+    cargo build -q -p micropt --release --example firmware --no-default-features \
+    --features firmware,parser,mirror --target thumbv8m.main-none-eabihf
+elf=$out/firmware-m33-cornell-$size.elf
+cp target/thumbv8m.main-none-eabihf/release/examples/firmware "$elf"
+QEMU_MACHINE=mps2-an505 QEMU_CPU=cortex-m33 OUT=$out TOP=15 tools/profile.sh "$elf"
+an521=target/dualcore/an521.size
+[ -f "$an521" ] || an521=firmware/expected/an521.size
+speedup=$(sed -n 's/^speedup_busier_core: \([0-9.]*\).*/\1/p' "$an521")
+echo
+echo "two-core speed-up $speedup ($an521)"
+tools/cpi.py "$elf" "$out" --speedup "$speedup" --miss 100
+echo
+echo "320x240 (the Pico 2's panel):"
+tools/cpi.py "$elf" "$out" --speedup "$speedup" --frame-paths $((320 * 240 * 17)) | grep -E 'CPI|instruction per cycle'
