@@ -3,8 +3,9 @@
 # profile (docs/pico2-frame.md): tools/pico2_frame.sh [SIZE]
 #
 # Builds examples/firmware for the M33 (QEMU mps2-an505) with cornell.scene
-# at SIZE (default 32x32, as .ci/targets.sh), 16 spp, seed 0, cornell's
-# features; runs it under tools/profile.sh (per-instruction counts, taken
+# at SIZE (default 240x240, about 20 s under the profiler; 32x32 is
+# .ci/targets.sh's size), 16 spp, seed 0, cornell's features; runs it
+# under tools/profile.sh (per-instruction counts, taken
 # branches, code-region reads, XIP cache model) and prints tools/cpi.py's
 # instruction mix, cycles per path and frame times: 240x240 (979,200 paths)
 # and the Pico 2 panel's 320x240 (1,305,600), at 150 MHz over two cores (the
@@ -12,7 +13,7 @@
 # firmware/expected/an521.size). Output in target/pico2-frame/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-size=${1:-32x32}
+size=${1:-240x240}
 out=target/pico2-frame
 mkdir -p "$out"
 MICROPT_FW_MACHINE=mps2-an505 MICROPT_FW_SCENE=scenes/cornell.scene MICROPT_FW_SIZE="$size" \
