@@ -12,7 +12,12 @@
 # image dump included (a few 10⁵ instructions). Calls per path of some
 # functions, from the same counts: tools/calls.py ELF OUT/counts.txt PATHS NAME...
 #
-# Env: NM (default arm-none-eabi-nm), QEMU_CPU (cortex-m4), TOP (30),
+# It also writes, for tools/cpi.py, OUT/taken.txt (taken branches),
+# OUT/data.txt (data reads from the code region) and OUT/cache.txt (an
+# RP2350 XIP cache model's misses): tools/qemu-profile/profile.c.
+#
+# Env: NM (default arm-none-eabi-nm), QEMU_MACHINE (netduinoplus2; mps2-an505
+# for the Cortex-M33 build), QEMU_CPU (cortex-m4; cortex-m33 there), TOP (30),
 # OUT (directory for the plugin and the counts; default target/profile).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,9 +26,10 @@ paths=${2:-}
 out=${OUT:-target/profile}
 mkdir -p "$out"
 gcc -O2 -Wall -Wextra -shared -fPIC -o "$out/libprofile.so" tools/qemu-profile/profile.c
-timeout 3600 qemu-system-arm -cpu "${QEMU_CPU:-cortex-m4}" -machine netduinoplus2 -nographic \
-    -semihosting-config enable=on,target=native -icount shift=0 \
-    -plugin "$out/libprofile.so,out=$out/counts.txt" -d plugin -kernel "$elf" >"$out/run.txt"
+timeout 3600 qemu-system-arm -cpu "${QEMU_CPU:-cortex-m4}" -machine "${QEMU_MACHINE:-netduinoplus2}" \
+    -nographic -semihosting-config enable=on,target=native -icount shift=0 \
+    -plugin "$out/libprofile.so,out=$out/counts.txt,taken=$out/taken.txt,data=$out/data.txt,cache=$out/cache.txt" \
+    -d plugin -kernel "$elf" >"$out/run.txt"
 cat "$out/run.txt"
 if [ -z "$paths" ]; then
     paths=$(sed -n 's/.*, \([0-9]*\) paths,.*/\1/p' "$out/run.txt")
