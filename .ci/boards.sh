@@ -31,8 +31,10 @@ bstep() { printf '\n==== boards: %s (%ss)\n' "$*" "$SECONDS"; }
 # text = allocated read-only sections (flash; on the ESP32-C3 also the code
 # copied to IRAM at boot, whose RAM is its .rwdata_dummy), data = allocated writable sections with contents
 # (RAM, copied from flash), bss = allocated sections without contents (RAM).
+# The Pico 2's .ram_text (code copied to SRAM at reset) counts as text and
+# also as static RAM.
 elf_size() {
-    local text=0 data=0 bss=0 line name type size flags
+    local text=0 data=0 bss=0 ramcode=0 line name type size flags
     while read -r line; do
         # "[Nr] Name Type Address Off Size ES Flg ..."
         read -r name type _ _ size _ flags _ <<<"${line#*]}"
@@ -42,6 +44,7 @@ elf_size() {
         # .rwdata_dummy (RAM taken by the code in IRAM) counts as bss
         [[ "$name" == .rotext_dummy || "$name" == .stack ]] && continue
         size=$((16#$size))
+        [ "$name" = .ram_text ] && ramcode=$((ramcode + size))
         if [ "$type" = NOBITS ]; then
             bss=$((bss + size))
         elif [[ "$flags" == *W* ]]; then
@@ -51,7 +54,7 @@ elf_size() {
         fi
     done < <(readelf -SW "$1" | grep -E '^ *\[ *[0-9]+\] +[^ ]')
     printf '%-8s text %7d  data %6d  bss %6d  (flash %d, static RAM %d bytes)\n' \
-        "$2" "$text" "$data" "$bss" "$((text + data))" "$((data + bss))"
+        "$2" "$text" "$data" "$bss" "$((text + data))" "$((data + bss + ramcode))"
 }
 
 # The boot block and the flash image of board $1's ELF $2 (fails if either

@@ -10,7 +10,8 @@
 # branches, code-region reads, XIP cache model) and prints tools/cpi.py's
 # instruction mix, cycles per path and frame times: 240x240 (979,200 paths)
 # and the Pico 2 panel's 320x240 (1,305,600), at 150 MHz over two cores (the
-# AN521 speed-up of target/dualcore/an521.size if .ci/dualcore.sh ran, else
+# AN521 speed-up at SIZE if tools/frame.sh measured it, else that of
+# target/dualcore/an521.size if .ci/dualcore.sh ran, else
 # firmware/expected/an521.size). With the host CLI built (target/debug/
 # micropt) it also compares the image with the host's. Output in
 # target/pico2-frame/.
@@ -40,7 +41,9 @@ if [ -x target/debug/micropt ]; then
         echo "image: DIFFERS from the host's (target/debug/micropt)"
     fi
 fi
-an521=target/dualcore/an521.size
+# the speed-up at this size if tools/frame.sh measured it, else the 64x64 one
+an521=target/frame/an521-$size/an521.size
+[ -f "$an521" ] || an521=target/dualcore/an521.size
 [ -f "$an521" ] || an521=firmware/expected/an521.size
 speedup=$(sed -n 's/^speedup_busier_core: \([0-9.]*\).*/\1/p' "$an521")
 echo
