@@ -81,8 +81,6 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
     // `split_at_glass`), traced after this one ends
     #[cfg(feature = "glass")]
     let mut pending: Option<Branch> = None;
-    // one pass per branch: without glass, exactly one
-    #[cfg_attr(not(feature = "glass"), allow(clippy::never_loop))]
     // one inlined query for every ray, with the camera ray's sphere list
     // when culling (a camera ray leaves no object), the bounce rays' list
     // from the first bounce on (a split path's other branch starts later)
@@ -91,6 +89,8 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
     } else {
         scene.tested
     };
+    // one pass per branch: without glass, exactly one
+    #[cfg_attr(not(feature = "glass"), allow(clippy::never_loop))]
     loop {
         loop {
             let found = if opts.skip.slabs {
