@@ -11,6 +11,7 @@ use super::plan::{Ctx, PrevVertex, window_of};
 use super::split::{Branch, split_at_glass};
 use super::{Options, Strategy, power_heuristic};
 use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3};
+use crate::material::diffuse::sample_cosine;
 use crate::material::{Bsdf, Lambert, Lobe, Scatter};
 use crate::math;
 use crate::sampler::SampleStream;
@@ -119,6 +120,25 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                 }
                 break;
             };
+            // Russian roulette on the throughput with which the path leaves
+            // this vertex (its `depth + 1`-th bounce): ends the path, or
+            // weights the survivor. Each scattering arm asks it last, but a
+            // cosine-sampled vertex before its direction, which a path that
+            // roulette ends never needs (the same numbers in the same order:
+            // the direction's are drawn before roulette's)
+            macro_rules! roulette {
+                () => {
+                    if depth + 1 >= opts.rr_start {
+                        let p = thr.max_component() * rr_scale * opts.rr_gain;
+                        if p < 1.0 {
+                            if !(stream.next_f32() < p) {
+                                break;
+                            }
+                            thr *= 1.0 / p;
+                        }
+                    }
+                };
+            }
             // a non-delta vertex, compiled once per lobe type (static
             // dispatch): next-event estimation and BSDF sampling by MIS
             macro_rules! non_delta {
@@ -256,13 +276,24 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                     } else {
                         stream.next_2d()
                     };
-                    let Some(bs) = lobe.sample(wo, n, u, opts.fast_math) else {
-                        break;
+                    // f · cos / pdf (the Lambertian's: its albedo, exactly),
+                    // and the π-scaled pdf of the direction
+                    let (dir, pi_pdf) = if let Some(w) = lobe.cosine_weight() {
+                        thr *= w;
+                        roulette!();
+                        sample_cosine(n, u[0], u[1], opts.fast_math)
+                    } else {
+                        let Some(bs) = lobe.sample(wo, n, u, opts.fast_math) else {
+                            break;
+                        };
+                        thr *= bs.weight;
+                        roulette!();
+                        (bs.dir, bs.pi_pdf)
                     };
                     let vertex = PrevVertex {
                         point: hit.point,
                         normal: n,
-                        bsdf_pdf: bs.pi_pdf * math::INV_PI,
+                        bsdf_pdf: pi_pdf * math::INV_PI,
                         weight_sum,
                         light_omc,
                         horizon,
@@ -275,10 +306,8 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                     {
                         prev = vertex;
                     }
-                    // f · cos / pdf (the Lambertian's: its albedo, exactly)
-                    thr *= bs.weight;
                     last = NON_DELTA;
-                    ray = hit.spawn_on(n, bs.dir);
+                    ray = hit.spawn_on(n, dir);
                 }};
             }
             let Some(mat) = scene.materials.get(hit.material as usize) else {
@@ -356,20 +385,12 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                     rr_scale /= ds.scale;
                     last = last.max(DELTA);
                     ray = hit.spawn(ds.dir);
+                    roulette!();
                 }
                 Scatter::Absorb => break,
             }
             depth += 1;
             spheres = scene.tested;
-            if depth >= opts.rr_start {
-                let p = thr.max_component() * rr_scale * opts.rr_gain;
-                if p < 1.0 {
-                    if !(stream.next_f32() < p) {
-                        break;
-                    }
-                    thr *= 1.0 / p;
-                }
-            }
             // one test per bounce for both the depth roulette and the cap
             if depth >= ctx.plan.deep {
                 match deep_roulette(depth, opts, stream, stats) {

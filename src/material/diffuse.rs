@@ -53,6 +53,11 @@ impl Lobe for Lambert {
             pi_pdf: cos,
         })
     }
+
+    #[inline(always)]
+    fn cosine_weight(&self) -> Option<Color> {
+        Some(self.0)
+    }
 }
 
 #[cfg(test)]
@@ -66,6 +71,23 @@ mod tests {
             let (d, c) = sample_cosine(n, i as f32 / 64.0, (i * 7 % 64) as f32 / 64.0, false);
             assert!(math::abs(d.length() - 1.0) < 1e-6);
             assert!(math::abs(d.dot(n) - c) < 1e-6 && c > 0.0);
+        }
+    }
+
+    /// The Lambertian's contract with the integrator, which samples its
+    /// direction after Russian roulette: its sample is the cosine sample of
+    /// the same numbers, with the weight `cosine_weight` gives.
+    #[test]
+    fn the_lambertian_sample_is_the_cosine_sample() {
+        let albedo = Vec3::new(0.7, 0.5, 0.25);
+        let lobe = Lambert(albedo);
+        assert_eq!(lobe.cosine_weight(), Some(albedo));
+        let n = Vec3::new(0.3, -0.4, 0.5).normalize();
+        for i in 0..256 {
+            let u = [(i % 16) as f32 / 16.0 + 0.01, (i / 16) as f32 / 16.0 + 0.02];
+            let s = lobe.sample(Vec3::new(0.0, 1.0, 0.0), n, u, false).unwrap();
+            let (dir, cos) = sample_cosine(n, u[0], u[1], false);
+            assert_eq!((s.dir, s.pi_pdf, s.weight), (dir, cos, albedo));
         }
     }
 

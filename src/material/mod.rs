@@ -227,6 +227,16 @@ pub trait Lobe: Copy {
     fn selective_alpha(&self) -> f32 {
         0.0
     }
+    /// `Some(weight)` for a lobe whose [`Lobe::sample`] is always the
+    /// cosine sample ([`diffuse::sample_cosine`]) of `n` and `u` with this
+    /// weight (the Lambertian, whose weight is its albedo): the weight does
+    /// not depend on the direction, so the integrator decides Russian
+    /// roulette before it samples the direction, which a path that roulette
+    /// ends never needs.
+    #[inline(always)]
+    fn cosine_weight(&self) -> Option<Color> {
+        None
+    }
 }
 
 impl Bsdf {
