@@ -42,6 +42,14 @@ pub const fn gamma(n: u32) -> f32 {
     ne / (1.0 - ne)
 }
 
+/// Whether this target has no FPU, so that every float operation is a
+/// call of a soft-float routine ([`soft`]): code with an exact integer
+/// alternative (a conservative test that keeps the bits) takes it there.
+pub const SOFT_FLOAT: bool = cfg!(any(
+    all(target_arch = "arm", not(target_abi = "eabihf")),
+    all(target_arch = "riscv32", not(target_feature = "f"))
+));
+
 /// Correctly rounded square root (the IEEE result). Negative input gives NaN.
 #[inline(always)]
 pub fn sqrt(x: f32) -> f32 {

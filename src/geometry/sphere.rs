@@ -90,14 +90,21 @@ impl Sphere {
     /// rejected before the robust form, which decides everything else. (The
     /// robust discriminant's own rounding is of the same order, so no hit it
     /// would find is lost.)
+    ///
+    /// On targets without an FPU, where each of those float operations is
+    /// a call of some 60 instructions, [`line_misses_by_far`] first rejects
+    /// the lines that miss by a wide margin in integer arithmetic; it only
+    /// rejects lines the float test rejects too, so the result is the same.
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<f32> {
         let f = ray.origin - self.center;
+        if math::SOFT_FLOAT && line_misses_by_far(f, ray.dir, self.radius2) {
+            return None;
+        }
         let b = -f.dot(ray.dir); // ray parameter of the closest approach
         let ff = f.dot(f);
         let c = ff - self.radius2; // > 0: origin outside
-        // c ≤ 0 (inside) never rejects here: b² − c |d|² ≥ 0
-        if b * b - c * ray.dir.dot(ray.dir) < -ff * (1.0 / 262_144.0) {
+        if line_misses(b, c, ff, ray.dir.dot(ray.dir)) {
             return None;
         }
         self.intersect_robust(ray, t_max, f, b, c)
@@ -282,6 +289,109 @@ impl Sphere {
     }
 }
 
+/// The cheap test of [`Sphere::intersect`]: whether `(f·d)² − c |d|² <
+/// −2⁻¹⁸ |f|²`, from `b = −f·d`, `c = |f|² − r²`, `ff = |f|²` and `dd =
+/// |d|²` (`f = o − centre`). `c ≤ 0` (inside) never rejects: `b² − c |d|²
+/// ≥ 0`.
+#[inline(always)]
+fn line_misses(b: f32, c: f32, ff: f32, dd: f32) -> bool {
+    b * b - c * dd < -ff * (1.0 / 262_144.0)
+}
+
+/// `x · 2^(e − sh)` truncated toward zero (`e` the biased exponent of the
+/// f32 bits `x`), for `sh − e ≥ 17`: `|result| < 2¹⁵`, off by less than 1;
+/// 0 for a shift of 32 or more.
+#[inline(always)]
+fn to_fixed(x: u32, sh: u32) -> i32 {
+    let sh = sh - ((x << 1) >> 24);
+    // the significand with its leading bit at bit 31 (bogus for a zero or
+    // subnormal, whose shift here is always 32 or more)
+    let mag = if sh < 32 {
+        (((x << 8) | 0x8000_0000) >> sh) as i32
+    } else {
+        0
+    };
+    if (x as i32) < 0 { -mag } else { mag }
+}
+
+/// Whether the line `o + t·d` misses the sphere of squared radius `r2` by
+/// far (`f = o − centre`), in 32-bit integer arithmetic: true only where
+/// [`line_misses`], the float test, is true too; false where it cannot
+/// tell (near misses, the origin inside, inputs out of its range).
+///
+/// `E = (f·d)² − (|f|² − r²)|d|²` (exact arithmetic on the f32 inputs) is
+/// within `2⁻¹⁹ |f|² |d|²` of the float test's rounded value if `|f|² > r²`
+/// (seventeen roundings of terms up to `|f|²|d|²`), so `E < −2⁻¹⁵
+/// |f|² |d|²` with `|d|² ≥ ½` makes the float test reject. Here `E` is
+/// approximated with 15-bit fixed-point components: `F = f·s` (`s` a power
+/// of two that puts the largest |f| component in [2¹⁴, 2¹⁵)) and `D =
+/// d·2¹⁴`, truncated (errors below one unit each), and from them `B =
+/// Σ F·D`, `FF = Σ F²`, `DD = Σ D²` and `R = ⌊r² s²⌋`. With `B₁ = B >>
+/// 15`, `C₁ = (FF − R) >> 15`, `D₁ = DD >> 15` the value `B₁² − C₁ D₁` is
+/// within 873,060 < 2²⁰ of `E s²/4` (error bounds: `B` 2¹⁷·⁰⁸, so `B₁²`
+/// 419,200; `FF` 196,611; `DD` 80,265; `C₁ D₁` 453,860) and
+/// `2⁻¹⁵|f|²|d|² s²/4 < 2¹⁶`, so `B₁² − C₁ D₁ < −(2²⁰ + 2¹⁶)` implies the
+/// float test's rejection. It rejects every line whose distance² from the
+/// centre exceeds `r² + 0.03 |f|²` (unit `d`).
+///
+/// Conditions, else false: the largest |f| component in [2⁻⁴⁰, 2⁴¹) (no
+/// overflow or underflow of the float test's terms), |d| components below
+/// 2 and `DD` in [2²⁷ + 2¹⁸, 2²⁹ − 2¹⁸] (so `|d|²` in (½, 2)), `r² s² <
+/// 2³²` and `FF ≥ R`.
+pub(crate) fn line_misses_by_far(f: Vec3, d: Vec3, r2: f32) -> bool {
+    let (fx, fy, fz) = (f.x.to_bits(), f.y.to_bits(), f.z.to_bits());
+    let m = ((fx << 1) >> 24).max((fy << 1) >> 24).max((fz << 1) >> 24);
+    // biased exponent in [87, 167]: 2⁻⁴⁰ ≤ max |f_i| < 2⁴¹
+    if m.wrapping_sub(87) > 80 {
+        return false;
+    }
+    let (dx, dy, dz) = (d.x.to_bits(), d.y.to_bits(), d.z.to_bits());
+    let md = ((dx << 1) >> 24).max((dy << 1) >> 24).max((dz << 1) >> 24);
+    if md > 127 {
+        return false;
+    }
+    // D = d·2¹⁴: the significand (leading bit at 31) >> (144 − e)
+    let (ddx, ddy, ddz) = (to_fixed(dx, 144), to_fixed(dy, 144), to_fixed(dz, 144));
+    let dd = (ddx * ddx) as u32 + (ddy * ddy) as u32 + (ddz * ddz) as u32;
+    if dd.wrapping_sub((1 << 27) + (1 << 18)) > (1 << 29) - (1 << 27) - (1 << 19) {
+        return false;
+    }
+    // F = f·2^(141 − m): >> (m + 17 − e)
+    let (ffx, ffy, ffz) = (
+        to_fixed(fx, m + 17),
+        to_fixed(fy, m + 17),
+        to_fixed(fz, m + 17),
+    );
+    let ff = (ffx * ffx) as u32 + (ffy * ffy) as u32 + (ffz * ffz) as u32;
+    // R = ⌊r² s²⌋ = ⌊m_r · 2^(e_r + 132 − 2m)⌋ (m_r the 24-bit significand)
+    let r = r2.to_bits() & 0x7fff_ffff;
+    let er = r >> 23;
+    let k = (er + 132) as i32 - 2 * m as i32;
+    let rr = if er == 0 {
+        0 // below 2⁻¹²⁶: r² s² < 2⁻¹⁸
+    } else if k >= 9 {
+        return false; // r² s² ≥ 2³² (also a NaN or infinite r²)
+    } else {
+        let mr = (r & 0x007f_ffff) | 0x0080_0000;
+        if k >= 0 {
+            mr << k
+        } else if k > -32 {
+            mr >> -k
+        } else {
+            0
+        }
+    };
+    // a rejection needs C₁ D₁ > 2²⁰ with D₁ ≤ 2¹⁴: C₁ > 64, FF − R > 2²¹,
+    // far above its error, so |f|² > r² (the origin is outside)
+    let Some(c) = ff.checked_sub(rr) else {
+        return false;
+    };
+    let c1 = c >> 15;
+    let b1 = (ffx * ddx + ffy * ddy + ffz * ddz) >> 15;
+    let e1 = (b1 * b1) - (c1 * (dd >> 15)) as i32;
+    e1 < -((1 << 20) + (1 << 16))
+}
+
 /// A sphere whose radius exceeds this multiple of its hit point's largest
 /// coordinate gets its hit point refined at the point's scale
 /// ([`Sphere::hit_huge`]) rather than re-projected through its centre.
@@ -339,11 +449,105 @@ mod tests {
             let robust = s.intersect_robust(&ray, f32::INFINITY, f, b, f.dot(f) - s.radius2);
             let fast = s.intersect(&ray, f32::INFINITY);
             assert_eq!(fast, robust, "case {k}");
+            if line_misses_by_far(f, dir, s.radius2) {
+                assert_eq!(robust, None, "case {k}");
+            }
             hits += u32::from(robust.is_some());
             kept += 1;
         }
         // the grazing rays hit and miss about equally often
         assert!(hits > kept / 4 && hits < kept * 3 / 4, "{hits} of {kept}");
+    }
+
+    /// A random unit vector (up to rounding), from `u` in [0, 1).
+    fn unit(u: &mut impl FnMut() -> f32) -> Vec3 {
+        loop {
+            let v = Vec3::new(u() - 0.5, u() - 0.5, u() - 0.5);
+            if v.length_squared() > 0.01 {
+                return v.normalize();
+            }
+        }
+    }
+
+    /// The integer rejection is conservative: whenever it rejects, the
+    /// float test does too (so both targets render the same bits). Lines
+    /// at every scale whose squared distance from the centre lies within
+    /// a small fraction of |f|² of r², either side (where the two tests'
+    /// margins are), origins inside and on the surface, and directions
+    /// off unit length by up to 10⁻⁶ relative.
+    #[test]
+    fn integer_rejection_implies_the_float_rejection() {
+        let mut z = 0x2545_f491_4f6c_dd1du64;
+        let mut u = || {
+            z = crate::sampler::mix64(z);
+            (z >> 40) as f32 / 16_777_216.0
+        };
+        let (mut cases, mut wide, mut wide_int) = (0u32, 0u32, 0u32);
+        for k in 0..1_000_000u32 {
+            let scale = math::exp2(u() * 90.0 - 45.0);
+            let d = unit(&mut u) * (1.0 + (u() - 0.5) * 2e-6);
+            let f = unit(&mut u) * (scale * (0.5 + u()));
+            let b = -f.dot(d);
+            let ff = f.dot(f);
+            // squared distance of the centre from the line, and r² near it:
+            // within 2⁻²⁶..2⁻² of |f|², or anywhere up to 2 |f|²
+            let p = math::max(ff - b * b, 0.0);
+            let r2 = match k % 4 {
+                0 => u() * 2.0 * ff,
+                1 => p + ff * math::exp2(-26.0 + u() * 24.0),
+                _ => p - ff * math::exp2(-26.0 + u() * 24.0),
+            };
+            if !(r2 > 0.0) {
+                continue;
+            }
+            let c = ff - r2;
+            let float = line_misses(b, c, ff, d.dot(d));
+            let int = line_misses_by_far(f, d, r2);
+            assert!(!int || float, "case {k}: f {f:?} d {d:?} r2 {r2}");
+            cases += 1;
+            // not vacuous: the lines that miss by more than 0.03 |f|² at
+            // scales within its range are all rejected
+            if p > r2 + 0.031 * ff && scale > 1e-11 && scale < 1e11 {
+                wide += 1;
+                wide_int += u32::from(int);
+            }
+        }
+        assert!(
+            cases > 900_000 && wide > 50_000 && wide_int == wide,
+            "{wide_int} of {wide}, {cases}"
+        );
+    }
+
+    /// The integer rejection is effective: it rejects every line whose
+    /// squared distance from the centre exceeds r² + 0.03 |f|², for unit
+    /// directions and |f| anywhere in [2⁻³⁹, 2⁴⁰].
+    #[test]
+    fn integer_rejection_rejects_every_clear_miss() {
+        let mut z = 0x9e37_79b9_7f4a_7c15u64;
+        let mut u = || {
+            z = crate::sampler::mix64(z);
+            (z >> 40) as f32 / 16_777_216.0
+        };
+        let mut n = 0;
+        while n < 200_000 {
+            let scale = math::exp2(u() * 77.0 - 38.0);
+            let d = unit(&mut u);
+            let f = unit(&mut u) * (scale * (0.5 + u()));
+            let ff = f.dot(f);
+            let b = f.dot(d);
+            let p = ff - b * b;
+            // r² = p − k |f|² with k from 0.031 up to p / |f|²
+            let kmax = p / ff;
+            if kmax <= 0.032 {
+                continue;
+            }
+            let r2 = p - ff * (0.031 + u() * (kmax - 0.031));
+            if !(r2 > 0.0) {
+                continue;
+            }
+            assert!(line_misses_by_far(f, d, r2), "f {f:?} d {d:?} r2 {r2}");
+            n += 1;
+        }
     }
 
     #[test]
