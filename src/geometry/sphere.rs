@@ -424,11 +424,7 @@ mod tests {
     /// form alone.
     #[test]
     fn cheap_rejection_keeps_every_robust_hit() {
-        let mut z = 0x9e37_79b9_7f4a_7c15u64;
-        let mut u = || {
-            z = crate::sampler::mix64(z);
-            (z >> 40) as f32 / 16_777_216.0
-        };
+        let mut u = uniform(0x9e37_79b9_7f4a_7c15u64);
         let (mut hits, mut kept) = (0u32, 0u32);
         for k in 0..200_000u32 {
             let scale = math::exp2(u() * 40.0 - 20.0);
@@ -459,6 +455,14 @@ mod tests {
         assert!(hits > kept / 4 && hits < kept * 3 / 4, "{hits} of {kept}");
     }
 
+    /// Uniform numbers in [0, 1) on the 2⁻²⁴ grid (splitmix64).
+    fn uniform(mut z: u64) -> impl FnMut() -> f32 {
+        move || {
+            z = crate::sampler::mix64(z);
+            (z >> 40) as f32 / 16_777_216.0
+        }
+    }
+
     /// A random unit vector (up to rounding), from `u` in [0, 1).
     fn unit(u: &mut impl FnMut() -> f32) -> Vec3 {
         loop {
@@ -477,11 +481,7 @@ mod tests {
     /// off unit length by up to 10⁻⁶ relative.
     #[test]
     fn integer_rejection_implies_the_float_rejection() {
-        let mut z = 0x2545_f491_4f6c_dd1du64;
-        let mut u = || {
-            z = crate::sampler::mix64(z);
-            (z >> 40) as f32 / 16_777_216.0
-        };
+        let mut u = uniform(0x2545_f491_4f6c_dd1du64);
         let (mut cases, mut wide, mut wide_int) = (0u32, 0u32, 0u32);
         for k in 0..1_000_000u32 {
             let scale = math::exp2(u() * 90.0 - 45.0);
@@ -523,11 +523,7 @@ mod tests {
     /// directions and |f| anywhere in [2⁻³⁹, 2⁴⁰].
     #[test]
     fn integer_rejection_rejects_every_clear_miss() {
-        let mut z = 0x9e37_79b9_7f4a_7c15u64;
-        let mut u = || {
-            z = crate::sampler::mix64(z);
-            (z >> 40) as f32 / 16_777_216.0
-        };
+        let mut u = uniform(0x9e37_79b9_7f4a_7c15u64);
         let mut n = 0;
         while n < 200_000 {
             let scale = math::exp2(u() * 77.0 - 38.0);
