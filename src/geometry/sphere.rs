@@ -97,10 +97,10 @@ impl Sphere {
     /// rejects lines the float test rejects too, so the result is the same.
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<f32> {
-        let f = ray.origin - self.center;
-        if math::SOFT_FLOAT && line_misses_by_far(f, ray.dir, self.radius2) {
+        if math::SOFT_FLOAT && line_misses_by_far(ray.origin, self.center, ray.dir, self.radius2) {
             return None;
         }
+        let f = ray.origin - self.center;
         let b = -f.dot(ray.dir); // ray parameter of the closest approach
         let ff = f.dot(f);
         let c = ff - self.radius2; // > 0: origin outside
@@ -299,7 +299,7 @@ fn line_misses(b: f32, c: f32, ff: f32, dd: f32) -> bool {
 }
 
 /// `x · 2^(e − sh)` truncated toward zero (`e` the biased exponent of the
-/// f32 bits `x`), for `sh − e ≥ 17`: `|result| < 2¹⁵`, off by less than 1;
+/// f32 bits `x`), for `sh ≥ e + 2`: `|result| < 2³⁰`, off by less than 1;
 /// 0 for a shift of 32 or more.
 #[inline(always)]
 fn to_fixed(x: u32, sh: u32) -> i32 {
@@ -311,64 +311,96 @@ fn to_fixed(x: u32, sh: u32) -> i32 {
     } else {
         0
     };
-    if (x as i32) < 0 { -mag } else { mag }
+    let sign = (x as i32) >> 31;
+    (mag ^ sign) - sign
 }
 
-/// Whether the line `o + t·d` misses the sphere of squared radius `r2` by
-/// far (`f = o − centre`), in 32-bit integer arithmetic: true only where
-/// [`line_misses`], the float test, is true too; false where it cannot
-/// tell (near misses, the origin inside, inputs out of its range).
+/// The biased exponent field of the largest of three f32 magnitudes.
+#[inline(always)]
+fn max_exponent(v: Vec3) -> u32 {
+    let e = |x: f32| (x.to_bits() << 1) >> 24;
+    e(v.x).max(e(v.y)).max(e(v.z))
+}
+
+/// Whether the line `o + t·d` misses the sphere of centre `centre` and
+/// squared radius `r2` by far, in 32-bit integer arithmetic: true only
+/// where [`line_misses`], the float test on `f = o − centre` (rounded), is
+/// true too; false where it cannot tell (near misses, the origin inside,
+/// inputs out of its range).
 ///
-/// `E = (f·d)² − (|f|² − r²)|d|²` (exact arithmetic on the f32 inputs) is
-/// within `2⁻¹⁹ |f|² |d|²` of the float test's rounded value if `|f|² > r²`
-/// (seventeen roundings of terms up to `|f|²|d|²`), so `E < −2⁻¹⁵
-/// |f|² |d|²` with `|d|² ≥ ½` makes the float test reject. Here `E` is
-/// approximated with 15-bit fixed-point components: `F = f·s` (`s` a power
-/// of two that puts the largest |f| component in [2¹⁴, 2¹⁵)) and `D =
-/// d·2¹⁴`, truncated (errors below one unit each), and from them `B =
-/// Σ F·D`, `FF = Σ F²`, `DD = Σ D²` and `R = ⌊r² s²⌋`. With `B₁ = B >>
+/// `E = (f·d)² − (|f|² − r²)|d|²` (exact arithmetic on the f32 `f`, `d`,
+/// `r²`) is within `2⁻¹⁹ |f|² |d|²` of the float test's rounded value if
+/// `|f|² > r²` (seventeen roundings of terms up to `|f|²|d|²`), so `E <
+/// −2⁻¹⁵ |f|² |d|²` with `|d|² ≥ ½` makes the float test reject. Here `E`
+/// is approximated in fixed point: `o` and the centre scaled by a power of
+/// two `S` that puts the largest of their components below 2³⁰, truncated,
+/// and subtracted (`G`, within 2 units of `f·S`); `G` shifted right by
+/// `sh ≥ 4` to put its largest component in [2¹⁴, 2¹⁵) gives `F = f·s`
+/// (`s = S/2^sh`) within 1 + 2^(1 − sh) + 2⁻⁹ ≤ 1.13 units (the last term:
+/// the rounding of `f`); `D = d·2¹⁴` truncated (within 1). From them `B =
+/// Σ F·D`, `FF = Σ F²`, `DD = Σ D²`, `R = ⌊r² s²⌋`, and with `B₁ = B >>
 /// 15`, `C₁ = (FF − R) >> 15`, `D₁ = DD >> 15` the value `B₁² − C₁ D₁` is
-/// within 873,060 < 2²⁰ of `E s²/4` (error bounds: `B` 2¹⁷·⁰⁸, so `B₁²`
-/// 419,200; `FF` 196,611; `DD` 80,265; `C₁ D₁` 453,860) and
-/// `2⁻¹⁵|f|²|d|² s²/4 < 2¹⁶`, so `B₁² − C₁ D₁ < −(2²⁰ + 2¹⁶)` implies the
-/// float test's rejection. It rejects every line whose distance² from the
-/// centre exceeds `r² + 0.03 |f|²` (unit `d`).
+/// within 897,943 < 2²⁰ of `E s²/4` (error bounds: `B` 143,653, so `B₁²`
+/// 431,300; `FF` 222,167; `DD` 80,265; `C₁ D₁` 466,643); and `2⁻¹⁵|f|²|d|²
+/// s²/4 < 2¹⁶`, so `B₁² − C₁ D₁ < −(2²⁰ + 2¹⁶)` implies the float test's
+/// rejection (and `C₁ > 64`: `|f|² > r²`). It rejects every line whose
+/// distance² from the centre exceeds `r² + 0.03 |f|²` (unit `d`, `|f|` at
+/// least 2⁻¹² of the largest coordinate).
 ///
-/// Conditions, else false: the largest |f| component in [2⁻⁴⁰, 2⁴¹) (no
-/// overflow or underflow of the float test's terms), |d| components below
-/// 2 and `DD` in [2²⁷ + 2¹⁸, 2²⁹ − 2¹⁸] (so `|d|²` in (½, 2)), `r² s² <
-/// 2³²` and `FF ≥ R`.
-pub(crate) fn line_misses_by_far(f: Vec3, d: Vec3, r2: f32) -> bool {
-    let (fx, fy, fz) = (f.x.to_bits(), f.y.to_bits(), f.z.to_bits());
-    let m = ((fx << 1) >> 24).max((fy << 1) >> 24).max((fz << 1) >> 24);
-    // biased exponent in [87, 167]: 2⁻⁴⁰ ≤ max |f_i| < 2⁴¹
+/// Conditions, else false: every coordinate of `o` and the centre below
+/// 2⁴¹ and one at least 2⁻⁴⁰, `G`'s largest component at least 2¹⁸
+/// (`sh ≥ 4`), |d| components below 2 and `DD` in [2²⁷ + 2¹⁸, 2²⁹ − 2¹⁸]
+/// (so `|d|²` in (½, 2)), `r² s² < 2³²` and `FF ≥ R`.
+pub(crate) fn line_misses_by_far(o: Vec3, centre: Vec3, d: Vec3, r2: f32) -> bool {
+    // biased exponent in [87, 167]: 2⁻⁴⁰ ≤ the largest coordinate < 2⁴¹
+    let m = max_exponent(o).max(max_exponent(centre));
     if m.wrapping_sub(87) > 80 {
         return false;
     }
-    let (dx, dy, dz) = (d.x.to_bits(), d.y.to_bits(), d.z.to_bits());
-    let md = ((dx << 1) >> 24).max((dy << 1) >> 24).max((dz << 1) >> 24);
-    if md > 127 {
+    if max_exponent(d) > 127 {
         return false;
     }
+    let (dx, dy, dz) = (d.x.to_bits(), d.y.to_bits(), d.z.to_bits());
     // D = d·2¹⁴: the significand (leading bit at 31) >> (144 − e)
     let (ddx, ddy, ddz) = (to_fixed(dx, 144), to_fixed(dy, 144), to_fixed(dz, 144));
     let dd = (ddx * ddx) as u32 + (ddy * ddy) as u32 + (ddz * ddz) as u32;
     if dd.wrapping_sub((1 << 27) + (1 << 18)) > (1 << 29) - (1 << 27) - (1 << 19) {
         return false;
     }
-    // F = f·2^(141 − m): >> (m + 17 − e)
-    let (ffx, ffy, ffz) = (
-        to_fixed(fx, m + 17),
-        to_fixed(fy, m + 17),
-        to_fixed(fz, m + 17),
-    );
+    // G = (o − centre)·S, S = 2^(156 − m): each coordinate >> (m + 2 − e)
+    let g = |a: f32, b: f32| to_fixed(a.to_bits(), m + 2) - to_fixed(b.to_bits(), m + 2);
+    let (gx, gy, gz) = (g(o.x, centre.x), g(o.y, centre.y), g(o.z, centre.z));
+    // the bit length of the largest |G|, in binary steps (no count-
+    // leading-zeros instruction on ARMv6-M); at least 19
+    let mut top = gx.unsigned_abs() | gy.unsigned_abs() | gz.unsigned_abs();
+    if top < 1 << 18 {
+        return false;
+    }
+    let mut sh = 4;
+    if top >= 1 << 26 {
+        top >>= 8;
+        sh += 8;
+    }
+    if top >= 1 << 22 {
+        top >>= 4;
+        sh += 4;
+    }
+    if top >= 1 << 20 {
+        top >>= 2;
+        sh += 2;
+    }
+    if top >= 1 << 19 {
+        sh += 1;
+    }
+    let (ffx, ffy, ffz) = (gx >> sh, gy >> sh, gz >> sh);
     let ff = (ffx * ffx) as u32 + (ffy * ffy) as u32 + (ffz * ffz) as u32;
-    // R = ⌊r² s²⌋ = ⌊m_r · 2^(e_r + 132 − 2m)⌋ (m_r the 24-bit significand)
+    // R = ⌊r² s²⌋ = ⌊m_r · 2^(e_r + 162 − 2m − 2sh)⌋ (m_r the 24-bit
+    // significand)
     let r = r2.to_bits() & 0x7fff_ffff;
     let er = r >> 23;
-    let k = (er + 132) as i32 - 2 * m as i32;
+    let k = (er + 162) as i32 - 2 * (m + sh) as i32;
     let rr = if er == 0 {
-        0 // below 2⁻¹²⁶: r² s² < 2⁻¹⁸
+        0 // below 2⁻¹²⁶: r² s² < 2⁻³⁰
     } else if k >= 9 {
         return false; // r² s² ≥ 2³² (also a NaN or infinite r²)
     } else {
@@ -445,7 +477,7 @@ mod tests {
             let robust = s.intersect_robust(&ray, f32::INFINITY, f, b, f.dot(f) - s.radius2);
             let fast = s.intersect(&ray, f32::INFINITY);
             assert_eq!(fast, robust, "case {k}");
-            if line_misses_by_far(f, dir, s.radius2) {
+            if line_misses_by_far(o, c, dir, s.radius2) {
                 assert_eq!(robust, None, "case {k}");
             }
             hits += u32::from(robust.is_some());
@@ -486,7 +518,12 @@ mod tests {
         for k in 0..1_000_000u32 {
             let scale = math::exp2(u() * 90.0 - 45.0);
             let d = unit(&mut u) * (1.0 + (u() - 0.5) * 2e-6);
-            let f = unit(&mut u) * (scale * (0.5 + u()));
+            // a centre up to 64 |f| from the origin, or anywhere up to 2¹⁶
+            // |f| (where f's rounding and the fixed point's scale count)
+            let far = if k % 8 == 7 { 65_536.0 } else { 64.0 };
+            let centre = unit(&mut u) * (scale * u() * far);
+            let o = centre + unit(&mut u) * (scale * (0.5 + u()));
+            let f = o - centre;
             let b = -f.dot(d);
             let ff = f.dot(f);
             // squared distance of the centre from the line, and r² near it:
@@ -502,12 +539,15 @@ mod tests {
             }
             let c = ff - r2;
             let float = line_misses(b, c, ff, d.dot(d));
-            let int = line_misses_by_far(f, d, r2);
-            assert!(!int || float, "case {k}: f {f:?} d {d:?} r2 {r2}");
+            let int = line_misses_by_far(o, centre, d, r2);
+            assert!(
+                !int || float,
+                "case {k}: o {o:?} centre {centre:?} d {d:?} r2 {r2}"
+            );
             cases += 1;
             // not vacuous: the lines that miss by more than 0.03 |f|² at
             // scales within its range are all rejected
-            if p > r2 + 0.031 * ff && scale > 1e-11 && scale < 1e11 {
+            if p > r2 + 0.031 * ff && far < 100.0 && scale > 1e-10 && scale < 1e9 {
                 wide += 1;
                 wide_int += u32::from(int);
             }
@@ -520,15 +560,18 @@ mod tests {
 
     /// The integer rejection is effective: it rejects every line whose
     /// squared distance from the centre exceeds r² + 0.03 |f|², for unit
-    /// directions and |f| anywhere in [2⁻³⁹, 2⁴⁰].
+    /// directions, |f| anywhere in [2⁻³⁶, 2³⁴] and centres within 64 |f|
+    /// of the origin.
     #[test]
     fn integer_rejection_rejects_every_clear_miss() {
         let mut u = uniform(0x9e37_79b9_7f4a_7c15u64);
         let mut n = 0;
         while n < 200_000 {
-            let scale = math::exp2(u() * 77.0 - 38.0);
+            let scale = math::exp2(u() * 68.0 - 35.0);
             let d = unit(&mut u);
-            let f = unit(&mut u) * (scale * (0.5 + u()));
+            let centre = unit(&mut u) * (scale * u() * 64.0);
+            let o = centre + unit(&mut u) * (scale * (0.5 + u()));
+            let f = o - centre;
             let ff = f.dot(f);
             let b = f.dot(d);
             let p = ff - b * b;
@@ -541,7 +584,10 @@ mod tests {
             if !(r2 > 0.0) {
                 continue;
             }
-            assert!(line_misses_by_far(f, d, r2), "f {f:?} d {d:?} r2 {r2}");
+            assert!(
+                line_misses_by_far(o, centre, d, r2),
+                "o {o:?} centre {centre:?} d {d:?} r2 {r2}"
+            );
             n += 1;
         }
     }
