@@ -115,20 +115,20 @@ impl Sphere {
     #[inline(always)]
     fn intersect_robust(&self, ray: &Ray, t_max: f32, f: Vec3, b: f32, c: f32) -> Option<f32> {
         let mut c = c;
-        if c > 0.0 && (b <= 0.0 || b - self.radius >= t_max) {
+        if math::gt_zero(c) && (math::le_zero(b) || b - self.radius >= t_max) {
             // outside, and the sphere lies behind the origin or beyond t_max
             return None;
         }
         let l = f + ray.dir * b;
         let disc = self.radius2 - l.dot(l);
-        if disc < 0.0 {
+        if math::lt_zero(disc) {
             return None;
         }
         let sq = math::sqrt(disc);
         // roots are q and c/q with q = b ± √disc (the sign of b: no
         // cancellation); outside (c > 0, b > 0) the near root is c/q; inside
         // (c ≤ 0) the positive root is q if b ≥ 0, else c/q
-        let q = if b >= 0.0 { b + sq } else { b - sq };
+        let q = if math::ge_zero(b) { b + sq } else { b - sq };
         // origin within 3 % of r from the surface: |f|² − r² cancels, and its
         // f32 rounding (up to ~3ε|f|², over 1000 for smallpt's r = 1e5
         // walls) moves the near root by ~1.5εr = 0.01, which shifts the rim
@@ -136,7 +136,9 @@ impl Sphere {
         // (docs/stability.md). Recompute it where it is used (c/q), or where
         // its sign, which picks the root, is within its rounding.
         if math::abs(c) < self.radius2 * 0.0625
-            && (c > 0.0 || b < 0.0 || -c <= math::gamma(8) * (c + 2.0 * self.radius2))
+            && (math::gt_zero(c)
+                || math::lt_zero(b)
+                || -c <= math::gamma(8) * (c + 2.0 * self.radius2))
         {
             // the recomputation costs some 60 operations: first a bound on
             // the rounded c, |c − c_exact| ≤ γ(8)(|f|² + r²) + 2r|δ| (three
@@ -152,7 +154,11 @@ impl Sphere {
             }
             c = self.origin_power(ray.origin);
         }
-        let t = if c > 0.0 || b < 0.0 { c / q } else { q };
+        let t = if math::gt_zero(c) || math::lt_zero(b) {
+            c / q
+        } else {
+            q
+        };
         if math::positive_below(t, t_max) {
             Some(t)
         } else {
@@ -196,12 +202,12 @@ impl Sphere {
     pub fn intersect_from_surface(&self, ray: &Ray, t_max: f32) -> Option<f32> {
         let f = ray.origin - self.center;
         let b = -f.dot(ray.dir);
-        if b <= 0.0 {
+        if math::le_zero(b) {
             return None;
         }
         let l = f + ray.dir * b;
         let disc = self.radius2 - l.dot(l);
-        if !(disc >= 0.0) {
+        if !math::ge_zero(disc) {
             // a grazing ray whose origin was offset outward (it leaves the
             // sphere): b > 0 only by rounding, and the line misses
             return None;
@@ -350,21 +356,11 @@ fn max_exponent(v: Vec3) -> u32 {
 /// Conditions, else false: every coordinate of `o` and the centre below
 /// 2⁴¹ and one at least 2⁻⁴⁰, `G`'s largest component at least 2¹⁸
 /// (`sh ≥ 4`), |d| components below 2 and `DD` in [2²⁷ + 2¹⁸, 2²⁹ − 2¹⁸]
-/// (so `|d|²` in (½, 2)), `r² s² < 2³²` and `FF ≥ R`.
+/// (so `|d|²` in (½, 2)), `r² s² < 2³²` and `C₁ > 64`.
 pub(crate) fn line_misses_by_far(o: Vec3, centre: Vec3, d: Vec3, r2: f32) -> bool {
     // biased exponent in [87, 167]: 2⁻⁴⁰ ≤ the largest coordinate < 2⁴¹
     let m = max_exponent(o).max(max_exponent(centre));
     if m.wrapping_sub(87) > 80 {
-        return false;
-    }
-    if max_exponent(d) > 127 {
-        return false;
-    }
-    let (dx, dy, dz) = (d.x.to_bits(), d.y.to_bits(), d.z.to_bits());
-    // D = d·2¹⁴: the significand (leading bit at 31) >> (144 − e)
-    let (ddx, ddy, ddz) = (to_fixed(dx, 144), to_fixed(dy, 144), to_fixed(dz, 144));
-    let dd = (ddx * ddx) as u32 + (ddy * ddy) as u32 + (ddz * ddz) as u32;
-    if dd.wrapping_sub((1 << 27) + (1 << 18)) > (1 << 29) - (1 << 27) - (1 << 19) {
         return false;
     }
     // G = (o − centre)·S, S = 2^(156 − m): each coordinate >> (m + 2 − e)
@@ -415,10 +411,22 @@ pub(crate) fn line_misses_by_far(o: Vec3, centre: Vec3, d: Vec3, r2: f32) -> boo
     };
     // a rejection needs C₁ D₁ > 2²⁰ with D₁ ≤ 2¹⁴: C₁ > 64, FF − R > 2²¹,
     // far above its error, so |f|² > r² (the origin is outside)
-    let Some(c) = ff.checked_sub(rr) else {
+    let c1 = ff.saturating_sub(rr) >> 15;
+    if c1 <= 64 {
         return false;
-    };
-    let c1 = c >> 15;
+    }
+    // the direction last: an origin inside (the walls of a room made of
+    // huge spheres) has returned above
+    if max_exponent(d) > 127 {
+        return false;
+    }
+    let (dx, dy, dz) = (d.x.to_bits(), d.y.to_bits(), d.z.to_bits());
+    // D = d·2¹⁴: the significand (leading bit at 31) >> (144 − e)
+    let (ddx, ddy, ddz) = (to_fixed(dx, 144), to_fixed(dy, 144), to_fixed(dz, 144));
+    let dd = (ddx * ddx) as u32 + (ddy * ddy) as u32 + (ddz * ddz) as u32;
+    if dd.wrapping_sub((1 << 27) + (1 << 18)) > (1 << 29) - (1 << 27) - (1 << 19) {
+        return false;
+    }
     let b1 = (ffx * ddx + ffy * ddy + ffz * ddz) >> 15;
     let e1 = (b1 * b1) - (c1 * (dd >> 15)) as i32;
     e1 < -((1 << 20) + (1 << 16))
