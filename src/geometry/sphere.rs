@@ -357,6 +357,7 @@ fn max_exponent(v: Vec3) -> u32 {
 /// 2⁴¹ and one at least 2⁻⁴⁰, `G`'s largest component at least 2¹⁸
 /// (`sh ≥ 4`), |d| components below 2 and `DD` in [2²⁷ + 2¹⁸, 2²⁹ − 2¹⁸]
 /// (so `|d|²` in (½, 2)), `r² s² < 2³²` and `C₁ > 64`.
+#[inline(always)]
 pub(crate) fn line_misses_by_far(o: Vec3, centre: Vec3, d: Vec3, r2: f32) -> bool {
     // biased exponent in [87, 167]: 2⁻⁴⁰ ≤ the largest coordinate < 2⁴¹
     let m = max_exponent(o).max(max_exponent(centre));
