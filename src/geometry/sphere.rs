@@ -92,9 +92,9 @@ impl Sphere {
     /// would find is lost.)
     ///
     /// On targets without an FPU, where each of those float operations is
-    /// a call of some 60 instructions, [`line_misses_by_far`] first rejects
-    /// the lines that miss by a wide margin in integer arithmetic; it only
-    /// rejects lines the float test rejects too, so the result is the same.
+    /// a call of some 60 instructions, a pre-test in integer arithmetic
+    /// first rejects the lines that miss by a wide margin; it only rejects
+    /// lines the float test rejects too, so the result is the same.
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<f32> {
         if math::SOFT_FLOAT && line_misses_by_far(ray.origin, self.center, ray.dir, self.radius2) {
