@@ -132,6 +132,12 @@ pub fn lt(a: f32, b: f32) -> bool {
     if SOFT_FLOAT { soft::lt(a, b) } else { a < b }
 }
 
+/// `a > b` (false if either is NaN), as [`lt`].
+#[inline(always)]
+pub fn gt(a: f32, b: f32) -> bool {
+    if SOFT_FLOAT { soft::lt(b, a) } else { a > b }
+}
+
 /// `x > 0` (false for ±0 and NaN); on targets without an FPU an integer
 /// comparison of the bits ([`soft::gt_zero`]) instead of a call.
 #[inline(always)]
@@ -185,13 +191,13 @@ pub fn min(a: f32, b: f32) -> f32 {
 /// The larger of two numbers (`b` if either is NaN and `a > b` is false).
 #[inline(always)]
 pub fn max(a: f32, b: f32) -> f32 {
-    if lt(b, a) { a } else { b }
+    if gt(a, b) { a } else { b }
 }
 
 /// `x` clamped to `[lo, hi]`; NaN becomes `lo`.
 #[inline(always)]
 pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
-    if lt(lo, x) {
+    if gt(x, lo) {
         if lt(x, hi) { x } else { hi }
     } else {
         lo
