@@ -359,6 +359,18 @@ fn max_exponent(v: Vec3) -> u32 {
 /// (so `|d|²` in (½, 2)), `r² s² < 2³²` and `C₁ > 64`.
 #[inline(always)]
 pub(crate) fn line_misses_by_far(o: Vec3, centre: Vec3, d: Vec3, r2: f32) -> bool {
+    // the direction first: the same for every sphere of a ray's loop, where
+    // this is inlined, so the compiler computes it once per ray
+    if max_exponent(d) > 127 {
+        return false;
+    }
+    let (dx, dy, dz) = (d.x.to_bits(), d.y.to_bits(), d.z.to_bits());
+    // D = d·2¹⁴: the significand (leading bit at 31) >> (144 − e)
+    let (ddx, ddy, ddz) = (to_fixed(dx, 144), to_fixed(dy, 144), to_fixed(dz, 144));
+    let dd = (ddx * ddx) as u32 + (ddy * ddy) as u32 + (ddz * ddz) as u32;
+    if dd.wrapping_sub((1 << 27) + (1 << 18)) > (1 << 29) - (1 << 27) - (1 << 19) {
+        return false;
+    }
     // biased exponent in [87, 167]: 2⁻⁴⁰ ≤ the largest coordinate < 2⁴¹
     let m = max_exponent(o).max(max_exponent(centre));
     if m.wrapping_sub(87) > 80 {
@@ -414,18 +426,6 @@ pub(crate) fn line_misses_by_far(o: Vec3, centre: Vec3, d: Vec3, r2: f32) -> boo
     // far above its error, so |f|² > r² (the origin is outside)
     let c1 = ff.saturating_sub(rr) >> 15;
     if c1 <= 64 {
-        return false;
-    }
-    // the direction last: an origin inside (the walls of a room made of
-    // huge spheres) has returned above
-    if max_exponent(d) > 127 {
-        return false;
-    }
-    let (dx, dy, dz) = (d.x.to_bits(), d.y.to_bits(), d.z.to_bits());
-    // D = d·2¹⁴: the significand (leading bit at 31) >> (144 − e)
-    let (ddx, ddy, ddz) = (to_fixed(dx, 144), to_fixed(dy, 144), to_fixed(dz, 144));
-    let dd = (ddx * ddx) as u32 + (ddy * ddy) as u32 + (ddz * ddz) as u32;
-    if dd.wrapping_sub((1 << 27) + (1 << 18)) > (1 << 29) - (1 << 27) - (1 << 19) {
         return false;
     }
     let b1 = (ffx * ddx + ffy * ddy + ffz * ddz) >> 15;
