@@ -42,6 +42,14 @@ pub const fn gamma(n: u32) -> f32 {
     ne / (1.0 - ne)
 }
 
+/// Whether this target has no FPU, so that every float operation is a
+/// call of a soft-float routine ([`soft`]): code with an exact integer
+/// alternative (a conservative test that keeps the bits) takes it there.
+pub const SOFT_FLOAT: bool = cfg!(any(
+    all(target_arch = "arm", not(target_abi = "eabihf")),
+    all(target_arch = "riscv32", not(target_feature = "f"))
+));
+
 /// Correctly rounded square root (the IEEE result). Negative input gives NaN.
 #[inline(always)]
 pub fn sqrt(x: f32) -> f32 {
@@ -116,23 +124,81 @@ pub fn copysign(x: f32, s: f32) -> f32 {
     f32::from_bits((x.to_bits() & 0x7fff_ffff) | (s.to_bits() & 0x8000_0000))
 }
 
+/// `a < b` (false if either is NaN): the operator, or on targets without
+/// an FPU the soft-float comparison inlined (integer tests on the bits
+/// instead of a call).
+#[inline(always)]
+pub fn lt(a: f32, b: f32) -> bool {
+    if SOFT_FLOAT { soft::lt(a, b) } else { a < b }
+}
+
+/// `a > b` (false if either is NaN), as [`lt`].
+#[inline(always)]
+pub fn gt(a: f32, b: f32) -> bool {
+    if SOFT_FLOAT { soft::lt(b, a) } else { a > b }
+}
+
+/// `x > 0` (false for ±0 and NaN); on targets without an FPU an integer
+/// comparison of the bits ([`soft::gt_zero`]) instead of a call.
+#[inline(always)]
+pub fn gt_zero(x: f32) -> bool {
+    if SOFT_FLOAT {
+        soft::gt_zero(x)
+    } else {
+        x > 0.0
+    }
+}
+
+/// `x < 0` (false for ±0 and NaN); on the bits ([`soft::lt_zero`]) on
+/// targets without an FPU.
+#[inline(always)]
+pub fn lt_zero(x: f32) -> bool {
+    if SOFT_FLOAT {
+        soft::lt_zero(x)
+    } else {
+        x < 0.0
+    }
+}
+
+/// `x >= 0` (true for −0, false for NaN); on the bits ([`soft::ge_zero`])
+/// on targets without an FPU.
+#[inline(always)]
+pub fn ge_zero(x: f32) -> bool {
+    if SOFT_FLOAT {
+        soft::ge_zero(x)
+    } else {
+        x >= 0.0
+    }
+}
+
+/// `x <= 0` (true for +0, false for NaN); on the bits ([`soft::le_zero`])
+/// on targets without an FPU.
+#[inline(always)]
+pub fn le_zero(x: f32) -> bool {
+    if SOFT_FLOAT {
+        soft::le_zero(x)
+    } else {
+        x <= 0.0
+    }
+}
+
 /// The smaller of two numbers (`b` if either is NaN and `a < b` is false).
 #[inline(always)]
 pub fn min(a: f32, b: f32) -> f32 {
-    if a < b { a } else { b }
+    if lt(a, b) { a } else { b }
 }
 
 /// The larger of two numbers (`b` if either is NaN and `a > b` is false).
 #[inline(always)]
 pub fn max(a: f32, b: f32) -> f32 {
-    if a > b { a } else { b }
+    if gt(a, b) { a } else { b }
 }
 
 /// `x` clamped to `[lo, hi]`; NaN becomes `lo`.
 #[inline(always)]
 pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
-    if x > lo {
-        if x < hi { x } else { hi }
+    if gt(x, lo) {
+        if lt(x, hi) { x } else { hi }
     } else {
         lo
     }

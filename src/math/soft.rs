@@ -86,6 +86,34 @@ pub fn unordered(a: f32, b: f32) -> bool {
     is_nan(a.to_bits()) || is_nan(b.to_bits())
 }
 
+/// `x > 0` (false for ±0 and NaN): the positive floats above +0, up to
+/// +∞, are the bit patterns 1 to `0x7f80_0000`.
+#[inline(always)]
+pub fn gt_zero(x: f32) -> bool {
+    x.to_bits().wrapping_sub(1) < INF
+}
+
+/// `x < 0` (false for ±0 and NaN): the bit patterns `0x8000_0001` to
+/// `0xff80_0000`.
+#[inline(always)]
+pub fn lt_zero(x: f32) -> bool {
+    x.to_bits().wrapping_sub(SIGN + 1) < INF
+}
+
+/// `x >= 0` (true for −0, false for NaN): +0 to +∞, or −0.
+#[inline(always)]
+pub fn ge_zero(x: f32) -> bool {
+    let b = x.to_bits();
+    b <= INF || b == SIGN
+}
+
+/// `x <= 0` (true for +0, false for NaN): +0, or −0 to −∞.
+#[inline(always)]
+pub fn le_zero(x: f32) -> bool {
+    let b = x.to_bits();
+    b == 0 || b.wrapping_sub(SIGN) <= INF
+}
+
 /// `a < b`, or `a <= b` if `or_equal`, on the bits; false if either is NaN.
 #[inline(always)]
 fn less(a: u32, b: u32, or_equal: bool) -> bool {

@@ -164,6 +164,40 @@ fn halfway_cases_round_to_even() {
     }
 }
 
+/// The comparisons with zero against the FPU's, and `math`'s comparisons
+/// (on the host the operators) with these.
+fn check_zero_compares(x: f32) {
+    assert_eq!(gt_zero(x), x > 0.0, "{:#010x} > 0", x.to_bits());
+    assert_eq!(lt_zero(x), x < 0.0, "{:#010x} < 0", x.to_bits());
+    assert_eq!(ge_zero(x), x >= 0.0, "{:#010x} >= 0", x.to_bits());
+    assert_eq!(le_zero(x), x <= 0.0, "{:#010x} <= 0", x.to_bits());
+    assert_eq!(
+        (crate::math::gt_zero(x), crate::math::lt_zero(x)),
+        (x > 0.0, x < 0.0)
+    );
+    assert_eq!(
+        (crate::math::ge_zero(x), crate::math::le_zero(x)),
+        (x >= 0.0, x <= 0.0)
+    );
+}
+
+/// Comparisons with zero: every edge operand and its neighbours with
+/// either sign (zeros, subnormals, infinities, NaNs of any payload at both
+/// ends of the NaN range) and 10⁶ random bit patterns.
+#[test]
+fn zero_comparisons_match_the_fpu() {
+    for e in EDGES.iter().chain(&[0x7f80_0001, 0x7fff_ffff]) {
+        for x in [*e, e.wrapping_add(1), e.wrapping_sub(1)] {
+            check_zero_compares(f32::from_bits(x));
+            check_zero_compares(f32::from_bits(x ^ SIGN));
+        }
+    }
+    let mut rng = Rng(4);
+    for _ in 0..1_000_000 {
+        check_zero_compares(f32::from_bits(rng.next() as u32));
+    }
+}
+
 fn check_sqrt(a: u32) {
     let hw = f32::from_bits(a).sqrt().to_bits();
     let soft = sqrt(f32::from_bits(a)).to_bits();
