@@ -357,7 +357,7 @@ pub fn concentric_disk(u1: f32, u2: f32, fast: bool) -> (f32, f32, f32) {
     // the larger magnitude is the radius: one quotient of the chosen pair
     // (not both quotients and a choice between them, which is what the
     // compiler makes of two quotients in two branches)
-    let swap = !(math::abs(a) > math::abs(b));
+    let swap = !math::gt(math::abs(a), math::abs(b));
     let (r, other) = if swap { (b, a) } else { (a, b) };
     let q = other / r;
     let phi = q * (0.25 * math::PI);

@@ -100,7 +100,7 @@ pub(super) fn nee<const MANY: bool, const TREE: bool, B: Lobe>(
     let ls = light::sample_cone_toward(c.to_c, c.d2, r2, u[0], u[1], opts.fast_math, surface);
     *omc_out = ls.omc_max;
     let cos = n.dot(ls.dir);
-    if !(cos > 0.0) {
+    if !math::gt_zero(cos) {
         return Color::ZERO;
     }
     *shadows += 1;

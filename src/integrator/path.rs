@@ -130,8 +130,8 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                 () => {
                     if depth + 1 >= opts.rr_start {
                         let p = thr.max_component() * rr_scale * opts.rr_gain;
-                        if p < 1.0 {
-                            if !(stream.next_f32() < p) {
+                        if math::lt(p, 1.0) {
+                            if !math::lt(stream.next_f32(), p) {
                                 break;
                             }
                             thr *= 1.0 / p;
@@ -149,7 +149,7 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                         no_split = true;
                     }
                     // two-sided: shade with the normal facing the incoming ray
-                    let n = if ray.dir.dot(hit.normal) < 0.0 {
+                    let n = if math::lt_zero(ray.dir.dot(hit.normal)) {
                         hit.normal
                     } else {
                         -hit.normal
@@ -223,7 +223,9 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                             weight_sum = 1.0;
                             let to_c = one.center - hit.point;
                             let d2 = to_c.length_squared();
-                            if d2 > one.radius2 && !(horizon && n.dot(to_c) < -one.radius) {
+                            if math::gt(d2, one.radius2)
+                                && !(horizon && math::lt(n.dot(to_c), -one.radius))
+                            {
                                 let c = LightChoice {
                                     sphere: one.sphere,
                                     p_sel: 1.0,
@@ -326,7 +328,7 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                         break;
                     }
                     // emits on the outward side only, reflects nothing
-                    if ray.dir.dot(hit.normal) < 0.0 {
+                    if math::lt_zero(ray.dir.dot(hit.normal)) {
                         let w = if last != NON_DELTA {
                             1.0
                         } else {
