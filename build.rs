@@ -229,9 +229,9 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
         let code = line.split('#').next().unwrap_or("");
         let toks: Vec<&str> = code.split_whitespace().collect();
         match toks.first().copied() {
-            Some("material") if toks.get(2) == Some(&"light") => {
+            Some("material") => {
                 materials += 1;
-                if let Some(&name) = toks.get(1) {
+                if let (Some(&name), Some(&"light")) = (toks.get(1), toks.get(2)) {
                     light_names.push(name);
                 }
             }
@@ -242,7 +242,6 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
                 }
             }
             Some("plane") => planes += 1,
-            Some("material") => materials += 1,
             Some("resolution") if toks.len() == 3 => {
                 if let (Ok(w), Ok(h)) = (toks[1].parse::<u32>(), toks[2].parse::<u32>()) {
                     resolution = Some((w, h));
