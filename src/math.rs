@@ -285,6 +285,15 @@ pub fn positive_below_positive(t: f32, max: f32) -> bool {
     t.to_bits().wrapping_sub(1) < max.to_bits() - 1
 }
 
+/// `|v| <= max` for a `max` that is +0 or positive (not NaN), false for a
+/// NaN `v`: on the bits, since the magnitudes of non-NaN floats order as
+/// their bit patterns and a NaN's are above every other (three integer
+/// instructions instead of a float comparison and a move of the flags).
+#[inline(always)]
+pub fn abs_at_most(v: f32, max: f32) -> bool {
+    v.to_bits() & 0x7fff_ffff <= max.to_bits()
+}
+
 /// The next float above `x` for `x` in [+0, +∞] (+∞ stays +∞): one integer
 /// increment, no branch on the common path.
 #[inline(always)]
@@ -457,6 +466,56 @@ mod tests {
         assert!(next_down(1.0) < 1.0);
         assert!(next_up(0.0) > 0.0 && next_down(0.0) < 0.0);
         assert!(next_up(-1.0) > -1.0);
+    }
+
+    /// The bit test is the float comparison `|v| <= max` (false for NaN)
+    /// on edge values and random bits, for a bound like the render's
+    /// sample bound (`f32::MAX / 2²⁰`) and for bounds at the edges of the
+    /// range (0, the smallest subnormal, the largest finite, +∞).
+    #[test]
+    fn abs_at_most_is_the_float_comparison() {
+        let s = f32::MAX / 1_048_576.0;
+        let edges = [
+            0.0,
+            -0.0,
+            1.0,
+            s,
+            -s,
+            f32::from_bits(s.to_bits() + 1),
+            f32::from_bits(s.to_bits() - 1),
+            f32::MAX,
+            f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::from_bits(0xffc0_0001),
+            f32::from_bits(0x7f80_0001),
+        ];
+        for m in [s, 0.0, f32::from_bits(1), f32::MAX, f32::INFINITY] {
+            for v in edges {
+                assert_eq!(
+                    abs_at_most(v, m),
+                    abs(v) <= m,
+                    "{v:e} ({:#x}) <= {m:e}",
+                    v.to_bits()
+                );
+            }
+            // xorshift32
+            let mut z = 7u32;
+            for _ in 0..100_000 {
+                z ^= z << 13;
+                z ^= z >> 17;
+                z ^= z << 5;
+                let v = f32::from_bits(z);
+                assert_eq!(
+                    abs_at_most(v, m),
+                    abs(v) <= m,
+                    "{:#x} <= {m:e}",
+                    v.to_bits()
+                );
+            }
+        }
     }
 
     #[test]
