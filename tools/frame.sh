@@ -16,6 +16,7 @@
 # Writes target/frame/frame-SIZE.txt. Takes a few minutes at 240x240.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+. .ci/elf.sh
 SIZE=${1:-240x240}
 SCENE=scenes/cornell.scene
 OUT=target/frame
@@ -46,8 +47,7 @@ one() {
     local marks paths flash
     read -r -a marks <<<"$(sed -n 's/^marks: //p' "$OUT/$name-$SIZE.icount")"
     paths=$(sed -n 's/.*, \([0-9]*\) paths,.*/\1/p' "$OUT/$name-$SIZE.run")
-    flash=$(arm-none-eabi-size -A "$elf" |
-        awk '$1==".vector_table"||$1==".text"||$1==".rodata"||$1==".data"{s+=$2} END{print s}')
+    read -r flash _ <<<"$(elf_figures "$elf")"
     local render=$((marks[3] - marks[2]))
     echo "$render $paths $((render / paths)) $flash"
 }
