@@ -5,11 +5,12 @@
 //! Parses a scene file embedded at compile time with the core's parser (or,
 //! without the core's `parser` feature, builds the Cornell box in code with
 //! `SceneBuilder`), renders it with the core's single-core budget executor
-//! (`micropt::budget::render_budget`: every tile's 1-spp preview, then every
-//! refined tile, with adaptive allocation as the host CLI's default) into an
-//! embedded-graphics `Framebuffer<Rgb565>` held in static memory, writes the
-//! framebuffer's big-endian Rgb565 bytes to a host file through semihosting,
-//! prints a one-line summary and exits with status 0 (1 on any error).
+//! (`micropt::budget::render_budget`: every tile's preview, sample 0 of one
+//! pixel per 2×2 block, then every refined tile, with adaptive allocation as
+//! the host CLI's default) into an embedded-graphics `Framebuffer<Rgb565>`
+//! held in static memory, writes the framebuffer's big-endian Rgb565 bytes to
+//! a host file through semihosting, prints a one-line summary and exits with
+//! status 0 (1 on any error).
 //!
 //! ```text
 //! cargo run --release --example firmware --features firmware --target thumbv7em-none-eabihf

@@ -4,17 +4,17 @@
 //!
 //! There is no framebuffer: 240×240 Rgb565 is 113 KiB, which does not fit
 //! beside the renderer in the F405's 128 KiB of RAM. The core's single-core
-//! budget executor (`micropt::budget::render_budget`) keeps one 16×16 tile
-//! of sample accumulators (`TileAccum`, 5 KiB, static) and draws every tile
+//! budget executor (`micropt::budget::render_budget`) keeps one 16×16 tile of
+//! sample accumulators (`TileAccum`, 5 KiB, static) and draws every tile
 //! twice, each time tone-mapped, dithered and sent to the panel with one
-//! `fill_contiguous` (a window write): first a 1-sample preview of the whole
-//! image, then each tile refined to its share of the budget, with adaptive
-//! allocation (more samples where a pixel's estimated error is larger). With
-//! [`BUDGET`] = `Budget::Spp(16)` the final image is what the host CLI gives
-//! for `micropt render scenes/cornell.scene --size 240x240 --spp 16 --seed 0`.
-//! A `Budget::Deadline(µs)` stops refining at a deadline instead, read from
-//! the SysTick clock (`examples/board/systick.rs`); the preview always
-//! completes.
+//! `fill_contiguous` (a window write): first a preview (sample 0 of one pixel
+//! per 2×2 block) of the whole image, then each tile refined to its share of
+//! the budget, with adaptive allocation (more samples where a pixel's
+//! estimated error is larger). With [`BUDGET`] = `Budget::Spp(16)` the final
+//! image is what the host CLI gives for `micropt render scenes/cornell.scene
+//! --size 240x240 --spp 16 --seed 0`. A `Budget::Deadline(µs)` stops refining
+//! at a deadline instead, read from the SysTick clock
+//! (`examples/board/systick.rs`); the preview always completes.
 //!
 //! Wiring (SPI1; any STM32F405 board, e.g. a "black F405" or Feather):
 //!

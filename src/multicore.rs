@@ -8,12 +8,13 @@
 //! executor's two passes, each a queue of tiles that the cores take from
 //! one at a time until it is empty:
 //!
-//! 1. **Preview**: sample 0 of every pixel of the tile, drawn at once.
+//! 1. **Preview**: sample 0 of every pixel of the tile, or of one pixel
+//!    per block ([`AdaptiveOptions::preview_block`]), drawn at once.
 //! 2. A barrier: no core starts refining before every preview is drawn (a
 //!    late preview would overwrite a refined tile).
 //! 3. **Refinement**: the tile's share of the budget ([`tile_share`]: by
 //!    pixel count, as [`allocate_tiles`](crate::budget::allocate_tiles)),
-//!    on its recomputed preview, drawn when done.
+//!    on its recomputed sample 0, drawn when done.
 //!
 //! A tile's refined pixels depend on the tile, the budget and the renderer
 //! only — not on the other tiles, not on which core takes it or when — so
@@ -41,14 +42,16 @@ use embedded_graphics::draw_target::DrawTarget;
 use embedded_graphics::geometry::{OriginDimensions, Size};
 use embedded_graphics::pixelcolor::{IntoStorage, Rgb565};
 
-use crate::budget::{AdaptiveOptions, Budget, Summary, TileAccum, budget_samples, tile_share};
+use crate::budget::{
+    AdaptiveOptions, Budget, Summary, TileAccum, budget_samples, preview_block, tile_share,
+};
 use crate::film::{FromEncoded, draw_tile_iter, tile_at};
 use crate::render::Renderer;
 
 /// The two passes of a budgeted render.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pass {
-    /// Sample 0 of every pixel.
+    /// The preview: sample 0 of every pixel, or of one pixel per block.
     Preview,
     /// The rest of the budget.
     Refine,
@@ -215,6 +218,7 @@ where
     };
     let mut sum = Summary::default();
     let mut failed = None;
+    let block = preview_block(&budget, opts);
     loop {
         let i = queue.take(Pass::Preview);
         let Some(tile) = tile_at(w, h, i) else {
@@ -223,7 +227,7 @@ where
         if failed.is_some() {
             continue; // take the rest, so that the pass ends
         }
-        r.preview_tile(&tile, acc, &mut sum.stats);
+        r.preview_blocks(&tile, acc, block, &mut sum.stats);
         sum.samples += tile.len() as u64;
         if let Err(e) = draw_tile_iter(target, &tile, acc.mean_iter(), exposure) {
             failed = Some(e);
@@ -239,7 +243,9 @@ where
             break;
         };
         let share = tile_share(w, h, extra, i);
-        if failed.is_some() || share == 0 {
+        // a tile without refinement keeps its preview if that was sample 0
+        // of every pixel
+        if failed.is_some() || (share == 0 && block == 1) {
             continue;
         }
         // the accumulators of the preview are gone: recompute sample 0

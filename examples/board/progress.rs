@@ -1,6 +1,6 @@
 //! A board's panel seen through a [`Progress`] counter: a `DrawTarget` that
 //! forwards every drawing call to the panel and, from the number of tiles
-//! drawn, tells the board when the 1-sample preview covers the panel and
+//! drawn, tells the board when the preview covers the panel and
 //! when each tenth of the refinement is on it, so a board can print (or
 //! blink) how far a frame of several minutes has come.
 //!
@@ -20,7 +20,7 @@ use embedded_graphics::primitives::Rectangle;
 /// How far a frame has come.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Milestone {
-    /// Every tile's 1-sample preview is on the panel.
+    /// Every tile's preview is on the panel.
     Preview,
     /// This many percent (10, 20, ..., 100) of the tiles are refined.
     Refined(u32),

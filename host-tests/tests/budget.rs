@@ -417,6 +417,100 @@ fn sample_budgets_are_deterministic_across_runs_threads_and_executors() {
     }
 }
 
+/// The board's coarse preview: every pixel of a block (cut at the tile's
+/// edges) shows sample 0 of the block's top-left pixel, bit for bit, and one
+/// path is traced per block.
+#[test]
+fn a_block_preview_shows_each_blocks_first_pixel() {
+    let s = scene("cornell");
+    let (w, h) = (45u32, 29u32);
+    let r = Renderer::new(&s, w, h).unwrap().seed(4);
+    for side in [2u32, 3] {
+        for i in 0..tile_count(w, h) {
+            let tile = tile_at(w, h, i).unwrap();
+            let mut acc = TileAccum::new();
+            let mut stats = Stats::default();
+            r.preview_blocks(&tile, &mut acc, side, &mut stats);
+            let mut means = vec![micropt::Color::ZERO; tile.len()];
+            acc.means(&mut means);
+            let mut blocks = 0u64;
+            for (k, m) in means.iter().enumerate() {
+                let (cx, cy) = (k as u32 % tile.w, k as u32 / tile.w);
+                let (bx, by) = (cx - cx % side, cy - cy % side);
+                blocks += u64::from((cx, cy) == (bx, by));
+                let want = r.sample(tile.x + bx, tile.y + by, 0, &mut Stats::default());
+                let bits = |c: &micropt::Color| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()];
+                assert_eq!(bits(m), bits(&want), "side {side}, tile {i}, pixel {k}");
+            }
+            assert_eq!(stats.paths, blocks, "side {side}, tile {i}");
+            assert_eq!(
+                blocks,
+                u64::from(tile.w.div_ceil(side) * tile.h.div_ceil(side))
+            );
+        }
+    }
+}
+
+/// The coarse preview changes what a board shows first, not the image: the
+/// board executor draws the same pixels, samples in the image, for a budget
+/// that refines every tile, one that refines none (1 spp: every tile is
+/// recomputed at full resolution) and one that refines every tile by a
+/// little, and traces `pixels − blocks` paths fewer than with a full
+/// preview (`blocks` more at 1 spp, where a full preview is the image and
+/// is not recomputed).
+#[test]
+fn the_block_preview_changes_no_pixel_of_the_image() {
+    let s = scene("cornell");
+    for (w, h) in [(48u32, 32u32), (45, 29)] {
+        let pixels = u64::from(w * h);
+        let r = Renderer::new(&s, w, h).unwrap().seed(2);
+        for (budget, refined) in [
+            (Budget::Spp(4), true),
+            (Budget::Spp(1), false),
+            (Budget::Paths(pixels + 300), true),
+        ] {
+            let run = |side: u32| {
+                let opts = AdaptiveOptions {
+                    preview_block: side,
+                    ..AdaptiveOptions::default()
+                };
+                let mut fb = Fb48x32::new();
+                let mut clock = LookClock { looks: 0 };
+                let sum = core_render_budget(
+                    &r,
+                    budget,
+                    &opts,
+                    &mut TileAccum::new(),
+                    &mut clock,
+                    &mut fb,
+                    1.0,
+                )
+                .unwrap();
+                (fb.data().to_vec(), sum)
+            };
+            let (full, one) = run(1);
+            for side in [2u32, 3] {
+                let what = format!("{w}x{h} {budget:?} side {side}");
+                let (coarse, sum) = run(side);
+                assert!(full == coarse, "{what}: the image changed");
+                assert_eq!(sum.samples, one.samples, "{what}");
+                let blocks: u64 = (0..tile_count(w, h))
+                    .map(|i| tile_at(w, h, i).unwrap())
+                    .map(|t| u64::from(t.w.div_ceil(side) * t.h.div_ceil(side)))
+                    .sum();
+                // full: pixels in the preview; coarse: blocks, and then the
+                // pixels' recomputed sample 0 where a full preview is kept
+                let kept = if refined { 0 } else { pixels };
+                assert_eq!(
+                    sum.stats.paths + pixels,
+                    one.stats.paths + blocks + kept,
+                    "{what}"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn uniform_spp_budget_equals_the_plain_render_bit_for_bit() {
     let s = scene("cornell");

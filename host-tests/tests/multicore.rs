@@ -117,6 +117,9 @@ fn cores_on_threads_draw_the_single_core_image_bit_for_bit() {
             3,
         ),
         ("cornell", Budget::Spp(3), false, 1),
+        // no refinement: every tile's sample 0 recomputed over its coarse
+        // preview
+        ("cornell", Budget::Spp(1), true, 2),
     ] {
         let s = scene(name);
         let r = Renderer::new(&s, W as u32, H as u32).unwrap().seed(seed);

@@ -5,6 +5,10 @@
 //!
 //! 1. **Preview.** Every pixel gets its first sample (index 0) before any
 //!    pixel gets more: a complete 1-spp image that a board can show at once.
+//!    A board, which keeps one tile of accumulators and so recomputes a
+//!    tile's sample 0 before refining it, draws a coarser preview under a
+//!    sample budget: sample 0 of one pixel per block of
+//!    [`AdaptiveOptions::preview_block`]² (the image is the same).
 //! 2. **Refinement.** The rest of the budget is split among the tiles in
 //!    proportion to their pixel counts, and within a tile among its pixels:
 //!    first one more sample for every pixel, so that each has two and a
@@ -130,6 +134,15 @@ pub struct AdaptiveOptions {
     /// Weight, in samples, of the tile's mean variance in each pixel's
     /// variance estimate.
     pub prior: f32,
+    /// Side, in pixels, of the square blocks of the board executors'
+    /// preview under a sample budget: 1 traces every pixel's sample 0, 2
+    /// one pixel in four and draws its sample over its block. The image
+    /// does not change: those executors keep one tile of accumulators and
+    /// recompute every tile's sample 0, at full resolution, before
+    /// refining it. A deadline's preview traces every pixel (a tile the
+    /// deadline leaves unrefined keeps its preview). The host's executor,
+    /// which keeps its preview, ignores it.
+    pub preview_block: u32,
 }
 
 impl Default for AdaptiveOptions {
@@ -139,6 +152,7 @@ impl Default for AdaptiveOptions {
             floor: 0.5,
             rounds: 8,
             prior: 8.0,
+            preview_block: 2,
         }
     }
 }
@@ -197,11 +211,12 @@ where
     let (w, h) = (r.width(), r.height());
     let start = clock.micros();
     let mut sum = Summary::default();
+    let block = preview_block(&budget, opts);
     for i in 0..tile_count(w, h) {
         let Some(tile) = tile_at(w, h, i) else {
             continue;
         };
-        r.preview_tile(&tile, acc, &mut sum.stats);
+        r.preview_blocks(&tile, acc, block, &mut sum.stats);
         // means drawn as computed: no tile buffer on the stack
         draw_tile_iter(target, &tile, acc.mean_iter(), exposure)?;
     }
@@ -218,7 +233,9 @@ where
             .saturating_sub(pixels);
         let mut result = Ok(());
         allocate_tiles(w, h, extra, |i, share| {
-            if result.is_err() || share == 0 {
+            // a tile without refinement keeps its preview if that was
+            // sample 0 of every pixel
+            if result.is_err() || (share == 0 && block == 1) {
                 return;
             }
             let Some(tile) = tile_at(w, h, i) else { return };
@@ -231,6 +248,15 @@ where
     }
     sum.total_micros = clock.micros().saturating_sub(start);
     Ok(sum)
+}
+
+/// The block side of a board executor's preview: [`AdaptiveOptions::preview_block`]
+/// (at least 1) under a sample budget, 1 under a deadline.
+pub(crate) fn preview_block(budget: &Budget, opts: &AdaptiveOptions) -> u32 {
+    match budget {
+        Budget::Deadline(_) => 1,
+        _ => opts.preview_block.max(1),
+    }
 }
 
 /// The refinement of [`render_budget`] for a deadline (see there).

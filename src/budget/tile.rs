@@ -72,7 +72,9 @@ impl TileAccum {
     }
 
     /// Adds samples `count[i] .. count[i] + k` to every pixel `i` of
-    /// `pixels`, each pixel's in turn, where `k` is `shares[i]` (which is
+    /// `pixels` (pixel `i` of `tile` at steps of `step` pixels: `(tile.x +
+    /// step · (i mod tile.w), tile.y + step · (i div tile.w))`), each
+    /// pixel's in turn, where `k` is `shares[i]` (which is
     /// lowered by what is added), or 1 for every pixel when `shares` is
     /// empty; at most `limit` samples in all, the last pixel's cut short.
     /// Returns the samples added. One call for a whole round of the tile
@@ -85,6 +87,7 @@ impl TileAccum {
         &mut self,
         r: &Renderer<'_>,
         tile: &Tile,
+        step: u32,
         pixels: core::ops::Range<usize>,
         shares: &mut [u32],
         limit: u32,
@@ -106,8 +109,8 @@ impl TileAccum {
             }
             let i32 = i as u32;
             let (x, y) = (
-                tile.x.saturating_add(i32 % w),
-                tile.y.saturating_add(i32 / w),
+                tile.x.saturating_add((i32 % w).saturating_mul(step)),
+                tile.y.saturating_add((i32 / w).saturating_mul(step)),
             );
             let (Some(sum), Some(l2), Some(n)) = (
                 self.sum.get_mut(i),
@@ -230,7 +233,48 @@ impl Renderer<'_> {
     /// Pass 1 for `tile`: sample 0 of every pixel into `acc` (reset first).
     pub fn preview_tile(&self, tile: &Tile, acc: &mut TileAccum, stats: &mut Stats) {
         acc.reset(tile.len());
-        acc.add(self, tile, 0..acc.len, &mut [], u32::MAX, stats);
+        acc.add(self, tile, 1, 0..acc.len, &mut [], u32::MAX, stats);
+    }
+
+    /// The board's preview of `tile` in blocks of `side × side` pixels
+    /// (cut at the tile's edges): sample 0 of each block's top-left pixel,
+    /// given to every pixel of the block; `side` 1 is
+    /// [`Renderer::preview_tile`]. With `side` above 1 the accumulators
+    /// hold a picture to draw, not the pixels' samples: refinement starts
+    /// from [`Renderer::preview_tile`].
+    pub fn preview_blocks(&self, tile: &Tile, acc: &mut TileAccum, side: u32, stats: &mut Stats) {
+        if side <= 1 {
+            self.preview_tile(tile, acc, stats);
+            return;
+        }
+        // the blocks' top-left pixels, a grid of `side` steps, through the
+        // one call site of the integrator (another would inline it again)
+        let grid = Tile {
+            w: tile.w.div_ceil(side),
+            h: tile.h.div_ceil(side),
+            ..*tile
+        };
+        acc.reset(grid.len());
+        acc.add(self, &grid, side, 0..acc.len, &mut [], u32::MAX, stats);
+        // each pixel takes its block's entry, from the last pixel back: the
+        // block's index `j` is at most the pixel's `i`, so not yet
+        // overwritten
+        acc.len = tile.len().min(TILE_PIXELS);
+        let (w, bw) = (tile.w.max(1), grid.w);
+        for i in (0..acc.len).rev() {
+            let (cx, cy) = (i as u32 % w, i as u32 / w);
+            let j = ((cy / side) * bw + cx / side) as usize;
+            if let (Some(&s), Some(&l2), Some(&n)) =
+                (acc.sum.get(j), acc.lum2.get(j), acc.count.get(j))
+                && let (Some(ds), Some(dl2), Some(dn)) = (
+                    acc.sum.get_mut(i),
+                    acc.lum2.get_mut(i),
+                    acc.count.get_mut(i),
+                )
+            {
+                (*ds, *dl2, *dn) = (s, l2, n);
+            }
+        }
     }
 
     /// Pass 2 for `tile`: spends `extra` more samples on the pixels of `acc`
@@ -283,10 +327,11 @@ impl Renderer<'_> {
             // are left
             let take = (extra - spent).min(n as u64) as usize;
             let head = (start + take).min(n);
-            acc.add(self, tile, start..head, &mut [], u32::MAX, stats);
+            acc.add(self, tile, 1, start..head, &mut [], u32::MAX, stats);
             acc.add(
                 self,
                 tile,
+                1,
                 0..take - (head - start),
                 &mut [],
                 u32::MAX,
@@ -346,7 +391,7 @@ impl Renderer<'_> {
                     since_check = 0;
                 }
                 let limit = (BATCH - since_check) as u32;
-                let done = acc.add(self, tile, next..n, &mut shares, limit, stats);
+                let done = acc.add(self, tile, 1, next..n, &mut shares, limit, stats);
                 if done == 0 {
                     break;
                 }

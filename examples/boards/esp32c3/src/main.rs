@@ -5,18 +5,18 @@
 //! The core's single-core budget executor (`micropt::budget::render_budget`)
 //! keeps one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB, on the
 //! stack) and draws every tile twice, tone-mapped, dithered, with one window
-//! write: first a 1-sample preview of the whole image, then each tile
-//! refined to its share of [`BUDGET`] with adaptive allocation. With
-//! `Budget::Spp(16)` the final image is the host's
-//! `micropt render scenes/cornell.scene --size 240x240 --spp 16 --seed 0`
-//! (the same image as the STM32F405 example's). The C3 has no FPU: every
-//! f32 add, subtract, multiply, divide, compare and int-to-float conversion
-//! is micropt's correctly rounded routine (`micropt::math::soft`, exported
-//! under the libgcc names by `examples/board/softfloat.rs`), not the chip's
+//! write: first a preview (sample 0 of one pixel per 2×2 block) of the whole
+//! image, then each tile refined to its share of [`BUDGET`] with adaptive
+//! allocation. With `Budget::Spp(16)` the final image is the host's `micropt
+//! render scenes/cornell.scene --size 240x240 --spp 16 --seed 0` (the same
+//! image as the STM32F405 example's). The C3 has no FPU: every f32 add,
+//! subtract, multiply, divide, compare and int-to-float conversion is
+//! micropt's correctly rounded routine (`micropt::math::soft`, exported under
+//! the libgcc names by `examples/board/softfloat.rs`), not the chip's
 //! mask-ROM libgcc, which esp-hal's linker script would bind them to
 //! (`build.rs` says how that is kept off). So a frame is many times slower
-//! than on an M4F (docs/boards.md); a `Budget::Deadline(µs)` caps it
-//! instead, read from esp-hal's microsecond clock.
+//! than on an M4F (docs/boards.md); a `Budget::Deadline(µs)` caps it instead,
+//! read from esp-hal's microsecond clock.
 //!
 //! Wiring (SPI2 on its IO MUX pins; any ESP32-C3 board, e.g. an
 //! ESP32-C3-DevKitM-1 or a "C3 SuperMini", and an ST7789 240×240 module):

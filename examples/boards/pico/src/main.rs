@@ -4,16 +4,16 @@
 //! straight to the panel through `mipidsi`.
 //!
 //! Both cores run the core's shared executor
-//! (`micropt::multicore::render_shared`): a 1-sample preview of every tile,
-//! then every tile refined to its share of [`BUDGET`] with adaptive
-//! allocation, each core taking the next tile from one queue. The M0+ has
-//! no atomic read-modify-write, so the queue (`queue.rs`) counts under the
-//! RP2040's hardware spinlock. Each core keeps one 16×16 tile of sample
-//! accumulators (`TileAccum`, 5 KiB, static) and draws its finished tiles
-//! itself, holding the panel for one window write. The image does not
-//! depend on which core rendered which tile: with `Budget::Spp(16)` it is
-//! the host's `micropt render scenes/cornell.scene --size 240x135 --spp 16
-//! --seed 0`, bit for bit.
+//! (`micropt::multicore::render_shared`): a preview of every tile (sample 0
+//! of one pixel per 2×2 block), then every tile refined to its share of
+//! [`BUDGET`] with adaptive allocation, each core taking the next tile from
+//! one queue. The M0+ has no atomic read-modify-write, so the queue
+//! (`queue.rs`) counts under the RP2040's hardware spinlock. Each core keeps
+//! one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB, static) and
+//! draws its finished tiles itself, holding the panel for one window write.
+//! The image does not depend on which core rendered which tile: with
+//! `Budget::Spp(16)` it is the host's `micropt render scenes/cornell.scene
+//! --size 240x135 --spp 16 --seed 0`, bit for bit.
 //!
 //! The M0+ has no FPU: every f32 add, subtract, multiply, divide, compare
 //! and int-to-float conversion is micropt's correctly rounded routine

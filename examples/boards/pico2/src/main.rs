@@ -4,18 +4,18 @@
 //! by tile, straight to the panel through `mipidsi`.
 //!
 //! Both cores run the core's shared executor
-//! (`micropt::multicore::render_shared`): a 1-sample preview of every tile,
-//! then every tile refined to its share of [`BUDGET`] with adaptive
-//! allocation, each core taking the next tile from one queue of atomic
-//! counters (`micropt::multicore::AtomicQueue`). Each core keeps one 16×16
-//! tile of sample
-//! accumulators (`TileAccum`, 5 KiB, static) and draws its finished tiles
-//! itself, holding the panel for one window write. The image does not
-//! depend on which core rendered which tile: with `Budget::Spp(16)` it is
-//! the host's `micropt render scenes/cornell.scene --size 320x240 --spp 16
-//! --seed 0`, bit for bit. There is no framebuffer (one would fit in the
-//! RP2350's 520 KiB, but the render does not need it). The FPUs do the f32
-//! arithmetic (no float routine is linked for it).
+//! (`micropt::multicore::render_shared`): a preview of every tile (sample 0
+//! of one pixel per 2×2 block), then every tile refined to its share of
+//! [`BUDGET`] with adaptive allocation, each core taking the next tile from
+//! one queue of atomic counters (`micropt::multicore::AtomicQueue`). Each
+//! core keeps one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB,
+//! static) and draws its finished tiles itself, holding the panel for one
+//! window write. The image does not depend on which core rendered which tile:
+//! with `Budget::Spp(16)` it is the host's `micropt render
+//! scenes/cornell.scene --size 320x240 --spp 16 --seed 0`, bit for bit. There
+//! is no framebuffer (one would fit in the RP2350's 520 KiB, but the render
+//! does not need it). The FPUs do the f32 arithmetic (no float routine is
+//! linked for it).
 //!
 //! What it shows: the panel is cleared to black before the backlight comes
 //! on, then the preview fills it in tile by tile, then the refined tiles
