@@ -352,7 +352,7 @@ impl Renderer<'_> {
             } else {
                 left / u64::from(rounds - r)
             };
-            let sig = self.pixel_sigmas(acc, opts);
+            let mut sig = self.pixel_sigmas(acc, opts);
             // water-filling: the counts the estimates call for at the end of
             // the tile's budget; this round goes by each pixel's deficit
             let final_total = (acc.total() + left) as f32;
@@ -360,14 +360,17 @@ impl Renderer<'_> {
             for v in sig.iter().take(n) {
                 sum_sig += *v;
             }
-            let deficit = |i: usize| {
+            // each pixel's deficit computed once, in place of its sigma
+            // (`split` reads a weight three times)
+            for (i, v) in sig.iter_mut().enumerate().take(n) {
                 let want = if sum_sig > 0.0 {
-                    final_total * sig.get(i).copied().unwrap_or(0.0) / sum_sig
+                    final_total * *v / sum_sig
                 } else {
                     final_total / n as f32
                 };
-                want - acc.count(i) as f32
-            };
+                *v = want - acc.count(i) as f32;
+            }
+            let deficit = |i: usize| sig.get(i).copied().unwrap_or(0.0);
             let mut shares = [0u32; TILE_PIXELS];
             split(n, this, opts.floor, deficit, |i, s| {
                 if let Some(x) = shares.get_mut(i) {
