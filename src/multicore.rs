@@ -249,8 +249,7 @@ where
             continue;
         }
         // the accumulators of the preview are gone: recompute sample 0
-        r.preview_tile(&tile, acc, &mut sum.stats);
-        sum.samples += r.refine_tile(&tile, acc, share, opts, &mut |_| false, &mut sum.stats);
+        sum.samples += r.preview_and_refine_tile(&tile, acc, share, opts, &mut sum.stats);
         if let Err(e) = draw_tile_iter(target, &tile, acc.mean_iter(), exposure) {
             failed = Some(e);
         }

@@ -379,6 +379,48 @@ fn refinement_split_over_calls_continues_where_it_stopped() {
     }
 }
 
+/// `preview_and_refine_tile` (sample 0, and sample 1 when the share has one
+/// for every pixel, in one walk, then the rest of the share) leaves the same
+/// accumulators, bit for bit, and traces the same paths as `preview_tile`
+/// followed by `refine_tile` with the whole share: shares
+/// below, at and above one sample per pixel, on a full and a cut tile,
+/// adaptive and uniform.
+#[test]
+fn preview_and_first_pass_in_one_walk_change_no_bit() {
+    let s = scene("spheres");
+    let r = Renderer::new(&s, 40, 20).unwrap().seed(3);
+    let never = &mut |_: u64| false;
+    // tile 0: 16x16 (256 pixels); tile 2: 8x16 (128)
+    for (i, n) in [(0usize, 256u64), (2, 128)] {
+        let tile = tile_at(40, 20, i).unwrap();
+        for share in [0, 1, n - 1, n, n + 1, 3 * n + 5] {
+            for adaptive in [false, true] {
+                let opts = AdaptiveOptions {
+                    adaptive,
+                    ..AdaptiveOptions::default()
+                };
+                let (mut st_a, mut st_b) = (Stats::default(), Stats::default());
+                let (mut a, mut b) = (TileAccum::new(), TileAccum::new());
+                r.preview_tile(&tile, &mut a, &mut st_a);
+                let spent_a = r.refine_tile(&tile, &mut a, share, &opts, never, &mut st_a);
+                let spent_b = r.preview_and_refine_tile(&tile, &mut b, share, &opts, &mut st_b);
+                let what = format!("tile {i}, share {share}, adaptive {adaptive}");
+                assert_eq!((spent_a, spent_b), (share, share), "{what}");
+                let counts =
+                    |t: &TileAccum| (0..n as usize).map(|k| t.count(k)).collect::<Vec<_>>();
+                assert_eq!(counts(&a), counts(&b), "{what}");
+                let means = |t: &TileAccum| {
+                    t.mean_iter()
+                        .map(|c| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()])
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(means(&a), means(&b), "{what}");
+                assert_eq!(st_a.paths, st_b.paths, "{what}");
+            }
+        }
+    }
+}
+
 #[test]
 fn sample_budgets_are_deterministic_across_runs_threads_and_executors() {
     let s = scene("spheres");

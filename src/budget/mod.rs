@@ -71,8 +71,10 @@
 //! **Memory.** Only one tile's accumulators ([`TileAccum`], 5 KiB for a
 //! 16×16 tile, plus 2 KiB of stack while allocating) are needed: no
 //! full-image float buffer on a board. A board that cannot keep the preview's
-//! accumulators recomputes the tile's sample 0 before refining it (same bits;
-//! the extra paths are counted in [`Stats`] but not in the budget).
+//! accumulators recomputes the tile's sample 0 before refining it, with
+//! sample 1 (the refinement's first pass) in the same walk over the pixels
+//! ([`Renderer::preview_and_refine_tile`]; same bits; the extra paths are
+//! counted in [`Stats`] but not in the budget).
 //!
 //! **Determinism.** Sample budgets (`Spp`, `Paths`) give the same image on
 //! every run, thread count and target. A `Deadline` stops when a caller's
@@ -240,8 +242,7 @@ where
             }
             let Some(tile) = tile_at(w, h, i) else { return };
             // the accumulators of the preview are gone: recompute sample 0
-            r.preview_tile(&tile, acc, &mut sum.stats);
-            sum.samples += r.refine_tile(&tile, acc, share, opts, &mut |_| false, &mut sum.stats);
+            sum.samples += r.preview_and_refine_tile(&tile, acc, share, opts, &mut sum.stats);
             result = draw_tile_iter(target, &tile, acc.mean_iter(), exposure);
         });
         result?;

@@ -1,7 +1,8 @@
 //! One tile's samples: its accumulators ([`TileAccum`]), the preview and
 //! the adaptive refinement of its pixels ([`Renderer::preview_tile`],
-//! [`Renderer::refine_tile`]), and the split of a sample budget over tiles
-//! and pixels that both use, exact to the sample.
+//! [`Renderer::refine_tile`], both at once on a recomputed preview:
+//! [`Renderer::preview_and_refine_tile`]), and the split of a sample budget
+//! over tiles and pixels that both use, exact to the sample.
 
 use super::{AdaptiveOptions, BATCH, TILE_PIXELS};
 use crate::film::{TILE, Tile, tile_at, tile_count};
@@ -74,8 +75,8 @@ impl TileAccum {
     /// Adds samples `count[i] .. count[i] + k` to every pixel `i` of
     /// `pixels` (pixel `i` of `tile` at steps of `step` pixels: `(tile.x +
     /// step · (i mod tile.w), tile.y + step · (i div tile.w))`), each
-    /// pixel's in turn, where `k` is `shares[i]` (which is
-    /// lowered by what is added), or 1 for every pixel when `shares` is
+    /// pixel's in turn, where `k` is `shares[i]` (which is lowered by what
+    /// is added), or `each` for every pixel when `shares` is
     /// empty; at most `limit` samples in all, the last pixel's cut short.
     /// Returns the samples added. One call for a whole round of the tile
     /// (or a clock check's batch of it): what the integrator loads once per
@@ -90,6 +91,7 @@ impl TileAccum {
         step: u32,
         pixels: core::ops::Range<usize>,
         shares: &mut [u32],
+        each: u32,
         limit: u32,
         stats: &mut Stats,
     ) -> u32 {
@@ -102,7 +104,7 @@ impl TileAccum {
                     *s -= k;
                     k
                 }
-                None => 1,
+                None => each,
             };
             if k == 0 {
                 continue;
@@ -232,8 +234,46 @@ pub(super) fn split(
 impl Renderer<'_> {
     /// Pass 1 for `tile`: sample 0 of every pixel into `acc` (reset first).
     pub fn preview_tile(&self, tile: &Tile, acc: &mut TileAccum, stats: &mut Stats) {
+        self.first_walk(tile, acc, 0, stats);
+    }
+
+    /// Sample 0 of every pixel of `tile` into `acc` (reset first), and
+    /// sample 1 too, in the same walk, when `extra` has one for every
+    /// pixel; returns the samples of `extra` spent (0 or the pixel count).
+    fn first_walk(&self, tile: &Tile, acc: &mut TileAccum, extra: u64, stats: &mut Stats) -> u64 {
         acc.reset(tile.len());
-        acc.add(self, tile, 1, 0..acc.len, &mut [], u32::MAX, stats);
+        let n = acc.len as u64;
+        let (each, first) = if extra >= n { (2, n) } else { (1, 0) };
+        acc.add(self, tile, 1, 0..acc.len, &mut [], each, u32::MAX, stats);
+        first
+    }
+
+    /// Both passes for `tile` on accumulators that no longer hold its
+    /// preview, with the budget's stop never asked: sample 0 of every pixel
+    /// into `acc` (reset first), as [`Renderer::preview_tile`], then
+    /// `extra` more samples, as [`Renderer::refine_tile`]. When `extra` has
+    /// one for every pixel, the refinement's first pass (sample 1 of every
+    /// pixel) goes in the same walk over the pixels as sample 0, which sets
+    /// up every pixel's sampler once for the two: the same samples in the
+    /// same order, so the same image. Returns the samples of `extra` spent.
+    pub fn preview_and_refine_tile(
+        &self,
+        tile: &Tile,
+        acc: &mut TileAccum,
+        extra: u64,
+        opts: &AdaptiveOptions,
+        stats: &mut Stats,
+    ) -> u64 {
+        let first = self.first_walk(tile, acc, extra, stats);
+        first
+            + self.refine_tile(
+                tile,
+                acc,
+                extra.saturating_sub(first),
+                opts,
+                &mut |_| false,
+                stats,
+            )
     }
 
     /// The board's preview of `tile` in blocks of `side × side` pixels
@@ -255,7 +295,7 @@ impl Renderer<'_> {
             ..*tile
         };
         acc.reset(grid.len());
-        acc.add(self, &grid, side, 0..acc.len, &mut [], u32::MAX, stats);
+        acc.add(self, &grid, side, 0..acc.len, &mut [], 1, u32::MAX, stats);
         // each pixel takes its block's entry, from the last pixel back: the
         // block's index `j` is at most the pixel's `i`, so not yet
         // overwritten
@@ -327,13 +367,14 @@ impl Renderer<'_> {
             // are left
             let take = (extra - spent).min(n as u64) as usize;
             let head = (start + take).min(n);
-            acc.add(self, tile, 1, start..head, &mut [], u32::MAX, stats);
+            acc.add(self, tile, 1, start..head, &mut [], 1, u32::MAX, stats);
             acc.add(
                 self,
                 tile,
                 1,
                 0..take - (head - start),
                 &mut [],
+                1,
                 u32::MAX,
                 stats,
             );
@@ -394,7 +435,7 @@ impl Renderer<'_> {
                     since_check = 0;
                 }
                 let limit = (BATCH - since_check) as u32;
-                let done = acc.add(self, tile, 1, next..n, &mut shares, limit, stats);
+                let done = acc.add(self, tile, 1, next..n, &mut shares, 1, limit, stats);
                 if done == 0 {
                     break;
                 }
