@@ -22,7 +22,7 @@
 //!   | ---------------------------- | ---------------- | ----------------- |
 //!   | `thumbv6m-none-eabi`         | `microbit`       | `netduinoplus2`   |
 //!   | `thumbv7m-none-eabi`         | `netduino2`      | `mps2-an385`      |
-//!   | `thumbv7em-none-eabihf`      | `netduinoplus2`  | `mps2-an386`, `mps2-an500` |
+//!   | `thumbv7em-none-eabihf`      | `netduinoplus2`  | `mps2-an500`      |
 //!   | `thumbv8m.main-none-eabihf`  | `mps2-an505`     | `mps2-an521` (`firmware-an521`) |
 //!   | `riscv32imc-unknown-none-elf`| `virt`           |                   |
 //!
@@ -52,10 +52,6 @@
 //!   `micropt_one_light` cfg, which leaves out the integrator's
 //!   several-lights variant (light choice, its pdfs, the outlined shadow
 //!   test).
-//!
-//! * for a machine whose RAM cannot hold a tile's kept pixel samplers (the
-//!   `microbit`'s 16 KiB), sets the `micropt_small_ram` cfg, which leaves
-//!   them out of `TileAccum`.
 
 use std::env;
 use std::fs;
@@ -65,7 +61,6 @@ fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo::rustc-check-cfg=cfg(micropt_no_bvh)");
     println!("cargo::rustc-check-cfg=cfg(micropt_one_light)");
-    println!("cargo::rustc-check-cfg=cfg(micropt_small_ram)");
     let firmware = env::var_os("CARGO_FEATURE_FIRMWARE").is_some();
     let board = env::var_os("CARGO_FEATURE_BOARD_ST7789").is_some();
     let bare_metal = env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none");
@@ -91,9 +86,6 @@ fn main() {
     fs::copy(&memory, out.join("board-memory.x")).expect("copy the memory map to OUT_DIR");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-examples=-Tlink.x");
-    if machine.small_ram {
-        println!("cargo:rustc-cfg=micropt_small_ram");
-    }
 
     if firmware && let Err(e) = firmware_config(&root, &out, machine) {
         panic!("firmware configuration: {e}");
@@ -111,74 +103,56 @@ struct Machine {
     clock_hz: u32,
     /// Whether it is a RISC-V machine.
     riscv: bool,
-    /// Whether its RAM (16 KiB) cannot hold a tile's kept pixel samplers
-    /// (13 KiB): the `micropt_small_ram` cfg leaves them out.
-    small_ram: bool,
 }
 
-const MACHINES: [Machine; 9] = [
+const MACHINES: [Machine; 8] = [
     Machine {
         name: "netduinoplus2",
         memory: "examples/board/memory-stm32f405.x",
         clock_hz: 168_000_000,
         riscv: false,
-        small_ram: false,
     },
     Machine {
         name: "netduino2",
         memory: "examples/board/memory-stm32f405.x",
         clock_hz: 120_000_000,
         riscv: false,
-        small_ram: false,
     },
     Machine {
         name: "microbit",
         memory: "examples/board/memory-microbit.x",
         clock_hz: 16_000_000,
         riscv: false,
-        small_ram: true,
     },
     Machine {
         name: "mps2-an385",
         memory: "examples/board/memory-mps2-an385.x",
         clock_hz: 25_000_000,
         riscv: false,
-        small_ram: false,
-    },
-    Machine {
-        name: "mps2-an386",
-        memory: "examples/board/memory-mps2-an386.x",
-        clock_hz: 25_000_000,
-        riscv: false,
-        small_ram: false,
     },
     Machine {
         name: "mps2-an500",
         memory: "examples/board/memory-mps2-an500.x",
         clock_hz: 25_000_000,
         riscv: false,
-        small_ram: false,
     },
     Machine {
         name: "mps2-an505",
         memory: "examples/board/memory-mps2-an505.x",
         clock_hz: 20_000_000,
         riscv: false,
-        small_ram: false,
     },
     Machine {
         name: "mps2-an521",
         memory: "examples/board/memory-mps2-an521.x",
         clock_hz: 20_000_000,
         riscv: false,
-        small_ram: false,
     },
     Machine {
         name: "virt",
         memory: "examples/board/memory-virt.x",
         clock_hz: 10_000_000,
         riscv: true,
-        small_ram: false,
     },
 ];
 

@@ -120,11 +120,8 @@ fn SysTick() {}
 
 /// Core 1's stack, in words.
 const CORE1_STACK_WORDS: usize = 4096;
-/// Core 1's stack (16 KiB).
+/// Core 1's stack (16 KiB: its tile accumulators live on it).
 static mut CORE1_STACK: [u32; CORE1_STACK_WORDS] = [0; CORE1_STACK_WORDS];
-/// Core 1's tile accumulators (static, as core 0's: with the pixel samplers
-/// they keep, 18 KiB, more than its stack).
-static mut CORE1_ACCUM: TileAccum = TileAccum::new();
 
 /// An Armv8-M vector table: the initial stack pointer, then the reset
 /// handler and the 14 system exceptions' (reserved ones included). VTOR
@@ -412,15 +409,12 @@ fn core1_main() -> ! {
         }
         queue.idle();
     };
-    // SAFETY: only core 1 touches CORE1_ACCUM, and only here, once: core
-    // 1's main never returns and is entered once per reset.
-    let accum = &raw mut CORE1_ACCUM;
-    let acc = unsafe { &mut *accum };
+    let mut acc = TileAccum::new();
     let result = render_shared(
         renderer,
         config::BUDGET,
         &adaptive(),
-        acc,
+        &mut acc,
         &queue,
         &mut &FRAMEBUFFER,
         EXPOSURE,

@@ -5,7 +5,7 @@
 //! There is no framebuffer: 240×240 Rgb565 is 113 KiB, which does not fit
 //! beside the renderer in the F405's 128 KiB of RAM. The core's single-core
 //! budget executor (`micropt::budget::render_budget`) keeps one 16×16 tile of
-//! sample accumulators (`TileAccum`, 18 KiB, static) and draws every tile
+//! sample accumulators (`TileAccum`, 5 KiB, static) and draws every tile
 //! twice, each time tone-mapped, dithered and sent to the panel with one
 //! `fill_contiguous` (a window write): first a preview (sample 0 of one pixel
 //! per 2×2 block) of the whole image, then each tile refined to its share of

@@ -74,6 +74,8 @@ pub struct Renderer<'a> {
 pub struct Pixel {
     sampler: PixelSampler,
     #[cfg(feature = "highlight")]
+    key: u64,
+    #[cfg(feature = "highlight")]
     highlights: PixelHighlights,
 }
 
@@ -152,26 +154,16 @@ impl<'a> Renderer<'a> {
     /// What all samples of pixel (x, y) share ([`Renderer::sample_in`]).
     #[inline(always)]
     pub fn pixel(&self, x: u32, y: u32) -> Pixel {
+        let key = pixel_key_of(self.seed_key, x, y);
         Pixel {
-            sampler: self.pixel_sampler(x, y),
+            sampler: PixelSampler::new(key),
             #[cfg(feature = "highlight")]
-            highlights: self.pixel_highlights(x, y),
+            key,
+            #[cfg(feature = "highlight")]
+            highlights: self
+                .highlights_on()
+                .map_or(PixelHighlights::NONE, |h| h.at(x, y)),
         }
-    }
-
-    /// The highlight pairs that can touch pixel (x, y).
-    #[cfg(feature = "highlight")]
-    #[inline(always)]
-    fn pixel_highlights(&self, x: u32, y: u32) -> PixelHighlights {
-        self.highlights_on()
-            .map_or(PixelHighlights::NONE, |h| h.at(x, y))
-    }
-
-    /// The key of the pixel samplers of this render: with a pixel's
-    /// position, all its sampler depends on.
-    #[cfg(not(micropt_small_ram))]
-    pub(crate) fn seed_key(&self) -> u64 {
-        self.seed_key
     }
 
     /// The (mirror, light) pairs whose images can be sampled from the
@@ -217,51 +209,7 @@ impl<'a> Renderer<'a> {
     /// beforehand ([`Renderer::pixel`]`(x, y)`; the same bits).
     #[inline(always)]
     pub fn sample_in(&self, pixel: &Pixel, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
-        self.sample_with(
-            &pixel.sampler,
-            #[cfg(feature = "highlight")]
-            &pixel.highlights,
-            x,
-            y,
-            index,
-            stats,
-        )
-    }
-
-    /// [`Renderer::sample_in`] from the pixel's sampler
-    /// ([`Renderer::pixel_sampler`]`(x, y)`) kept elsewhere: its highlight
-    /// pairs are found here.
-    #[inline(always)]
-    pub(crate) fn sample_from(
-        &self,
-        sampler: &PixelSampler,
-        x: u32,
-        y: u32,
-        index: u32,
-        stats: &mut Stats,
-    ) -> Color {
-        self.sample_with(
-            sampler,
-            #[cfg(feature = "highlight")]
-            &self.pixel_highlights(x, y),
-            x,
-            y,
-            index,
-            stats,
-        )
-    }
-
-    #[inline(always)]
-    fn sample_with(
-        &self,
-        sampler: &PixelSampler,
-        #[cfg(feature = "highlight")] highlights: &PixelHighlights,
-        x: u32,
-        y: u32,
-        index: u32,
-        stats: &mut Stats,
-    ) -> Color {
-        let mut s = sampler.stream(index);
+        let mut s = pixel.sampler.stream(index);
         let ray = self.primary_ray(&mut s, x, y);
         #[allow(unused_mut)]
         let mut c = integrator::radiance_planned(
@@ -276,8 +224,8 @@ impl<'a> Renderer<'a> {
         );
         // the lights seen in mirrors that the path left out
         #[cfg(feature = "highlight")]
-        if !highlights.is_empty() {
-            c += self.highlights_of(sampler.key(), highlights, x, y, index, stats);
+        if !pixel.highlights.is_empty() {
+            c += self.highlights_of(pixel, x, y, index, stats);
         }
         let kept = |v: f32| crate::math::abs_at_most(v, SAMPLE_MAX);
         if kept(c.x) && kept(c.y) && kept(c.z) {
@@ -292,20 +240,12 @@ impl<'a> Renderer<'a> {
     /// line: most pixels have none).
     #[cfg(feature = "highlight")]
     #[inline(never)]
-    fn highlights_of(
-        &self,
-        key: u64,
-        highlights: &PixelHighlights,
-        x: u32,
-        y: u32,
-        index: u32,
-        stats: &mut Stats,
-    ) -> Color {
+    fn highlights_of(&self, pixel: &Pixel, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
         let mut c = Color::ZERO;
-        highlights.each(&self.highlights, x, y, |k, p| {
+        pixel.highlights.each(&self.highlights, x, y, |k, p| {
             // the pair's own scrambled Sobol points over the pixel's
             // samples, also when the path's numbers are independent
-            let rnd = sobol_2d(index, key ^ mix64(k as u64 + 1));
+            let rnd = sobol_2d(index, pixel.key ^ mix64(k as u64 + 1));
             if let Some(v) = highlight::estimate(&self.scene, &self.camera, p, x, y, rnd, stats) {
                 c += v;
             }

@@ -226,19 +226,6 @@ impl PixelSampler {
         }
     }
 
-    /// The pixel key it was made from ([`PixelSampler::new`]).
-    #[inline(always)]
-    pub fn key(&self) -> u64 {
-        (u64::from(self.hash[1]) << 32) | u64::from(self.hash[0])
-    }
-
-    /// A sampler of all zeros: a placeholder for storage, not a pixel's.
-    pub const EMPTY: Self = Self {
-        hash: [0; 2],
-        pairs: [[0; 3]; CACHED_PAIRS],
-        rng: [0; 2],
-    };
-
     /// The stream of sample `index` of this pixel.
     #[inline(always)]
     pub fn stream(&self, index: u32) -> SampleStream<'_> {

@@ -3,9 +3,8 @@
 # counts: tools/frame.sh [SIZE] (default 240x240; scenes/cornell.scene with
 # its own features, parser and mirror, 16 spp, seed 0, adaptive).
 #
-#   1. Cortex-M4F firmware (netduinoplus2; mps2-an386, a Cortex-M4F with
-#      more RAM, above 64x64): render instructions, traced paths,
-#      instructions per path at SIZE.
+#   1. Cortex-M4F firmware (netduinoplus2): render instructions, traced
+#      paths, instructions per path at SIZE.
 #   2. Cortex-M33 firmware (mps2-an505, the RP2350's core): the same.
 #   3. Two Cortex-M33 (mps2-an521, .ci/dualcore.sh at SIZE): the two-core
 #      speed-up of the same scene and size.
@@ -31,7 +30,7 @@ target/debug/micropt render "$SCENE" --size "$SIZE" --spp 16 --seed 0 --exposure
 one() {
     local target=$1 machine=$2 name=$3 cpu=()
     [ "$machine" = netduinoplus2 ] && cpu=(-cpu cortex-m4)
-    MICROPT_FW_MACHINE=$machine MICROPT_FW_SCENE=$SCENE MICROPT_FW_SIZE=$SIZE MICROPT_FW_SPP=16 MICROPT_FW_SEED=0 \
+    MICROPT_FW_SCENE=$SCENE MICROPT_FW_SIZE=$SIZE MICROPT_FW_SPP=16 MICROPT_FW_SEED=0 \
         MICROPT_FW_OUT="$OUT/$name-$SIZE.rgb565" \
         cargo build -q -p micropt --release --example firmware --no-default-features \
         --features firmware,parser,mirror --target "$target"
@@ -53,12 +52,7 @@ one() {
     echo "$render $paths $((render / paths)) $flash"
 }
 
-# the netduinoplus2's 128 KiB of SRAM cannot hold a 240x240 framebuffer
-# beside the tile's accumulators: the same Cortex-M4F code on QEMU's
-# mps2-an386 (a Cortex-M4F with 512 KiB of data RAM) instead
-m4_machine=netduinoplus2
-[ "$SIZE" = 64x64 ] || [ "$SIZE" = 32x32 ] || m4_machine=mps2-an386
-read -r m4_render m4_paths m4_per m4_flash <<<"$(one thumbv7em-none-eabihf $m4_machine m4f)"
+read -r m4_render m4_paths m4_per m4_flash <<<"$(one thumbv7em-none-eabihf netduinoplus2 m4f)"
 read -r m33_render m33_paths m33_per m33_flash <<<"$(one thumbv8m.main-none-eabihf mps2-an505 m33)"
 # the AN521's 128 KiB of internal SRAM cannot hold a 240x240 framebuffer and
 # two cores' accumulators: data in 512 KiB of its SSRAM2 instead
@@ -72,7 +66,7 @@ speedup=$(sed -n 's/^speedup_busier_core: \([0-9.]*\).*/\1/p' "$OUT/an521-$SIZE/
 {
     echo "# tools/frame.sh $SIZE: scenes/cornell.scene, parser + mirror, 16 spp, seed 0, adaptive;"
     echo "# exact QEMU instruction counts (-icount shift=0); board images == host's"
-    echo "m4f_$m4_machine: render $m4_render  paths $m4_paths  per_path $m4_per  flash $m4_flash"
+    echo "m4f_netduinoplus2: render $m4_render  paths $m4_paths  per_path $m4_per  flash $m4_flash"
     echo "m33_mps2-an505: render $m33_render  paths $m33_paths  per_path $m33_per  flash $m33_flash"
     echo "an521_two_core_speedup: $speedup"
     awk -v r="$m33_render" -v s="$speedup" 'BEGIN {

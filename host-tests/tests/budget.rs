@@ -421,40 +421,6 @@ fn preview_and_first_pass_in_one_walk_change_no_bit() {
     }
 }
 
-/// The pixel samplers a tile's accumulators keep between rounds belong to
-/// one render and tile: accumulators that refined another tile, or the same
-/// tile of a render with another seed, give the bits of fresh ones.
-#[test]
-fn kept_pixel_samplers_never_leak_between_renders_or_tiles() {
-    let s = scene("cornell");
-    let (w, h) = (40u32, 20u32);
-    let r1 = Renderer::new(&s, w, h).unwrap().seed(1);
-    let r2 = Renderer::new(&s, w, h).unwrap().seed(2);
-    let opts = AdaptiveOptions::default();
-    let bits = |t: &TileAccum| {
-        t.mean_iter()
-            .map(|c| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()])
-            .collect::<Vec<_>>()
-    };
-    let run = |r: &Renderer<'_>, i: usize, acc: &mut TileAccum| {
-        let tile = tile_at(w, h, i).unwrap();
-        r.preview_and_refine_tile(
-            &tile,
-            acc,
-            5 * tile.len() as u64,
-            &opts,
-            &mut Stats::default(),
-        );
-        bits(acc)
-    };
-    for (first, (second, i)) in [(&r1, (&r2, 0usize)), (&r1, (&r1, 1)), (&r2, (&r1, 2))] {
-        let mut used = TileAccum::new();
-        run(first, 0, &mut used);
-        let fresh = run(second, i, &mut TileAccum::new());
-        assert!(run(second, i, &mut used) == fresh, "tile {i}");
-    }
-}
-
 #[test]
 fn sample_budgets_are_deterministic_across_runs_threads_and_executors() {
     let s = scene("spheres");

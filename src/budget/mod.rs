@@ -68,14 +68,13 @@
 //! deadline. The stop condition is also asked every [`BATCH`] samples, so a
 //! render ends within one batch (plus a round's start-up) of its deadline.
 //!
-//! **Memory.** Only one tile's accumulators ([`TileAccum`], 18 KiB for a
-//! 16×16 tile: 5 KiB of sums and counts and 13 KiB of the pixels' samplers,
-//! kept from round to round; plus 2 KiB of stack while allocating) are
-//! needed: no full-image float buffer on a board. A board that cannot keep
-//! the preview's accumulators recomputes the tile's sample 0 before refining
-//! it, with sample 1 (the refinement's first pass) in the same walk over the
-//! pixels ([`Renderer::preview_and_refine_tile`]; same bits; the extra paths
-//! are counted in [`Stats`] but not in the budget).
+//! **Memory.** Only one tile's accumulators ([`TileAccum`], 5 KiB for a
+//! 16×16 tile, plus 2 KiB of stack while allocating) are needed: no
+//! full-image float buffer on a board. A board that cannot keep the preview's
+//! accumulators recomputes the tile's sample 0 before refining it, with
+//! sample 1 (the refinement's first pass) in the same walk over the pixels
+//! ([`Renderer::preview_and_refine_tile`]; same bits; the extra paths are
+//! counted in [`Stats`] but not in the budget).
 //!
 //! **Determinism.** Sample budgets (`Spp`, `Paths`) give the same image on
 //! every run, thread count and target. A `Deadline` stops when a caller's

@@ -9,30 +9,15 @@ use crate::film::{TILE, Tile, tile_at, tile_count};
 use crate::geometry::Color;
 use crate::math;
 use crate::render::Renderer;
-#[cfg(not(micropt_small_ram))]
-use crate::sampler::PixelSampler;
 use crate::stats::Stats;
 
-/// Sample accumulators for the pixels of one tile, and the tile's pixel
-/// samplers, kept from one adaptive round to the next (13 KiB; a build for a
-/// board with less RAM than that, with the `micropt_small_ram` cfg, sets a
-/// pixel's sampler up again in every round).
+/// Sample accumulators for the pixels of one tile.
 #[derive(Clone, Debug)]
 pub struct TileAccum {
     sum: [Color; TILE_PIXELS],
     lum2: [f32; TILE_PIXELS],
     count: [u32; TILE_PIXELS],
     len: usize,
-    /// Pixel `i`'s sampler where bit `i` of `sampled` is set, for the
-    /// render and tile named by `samplers_of`: a pure function of the
-    /// render's seed and the pixel's position, so it is never stale.
-    #[cfg(not(micropt_small_ram))]
-    samplers: [PixelSampler; TILE_PIXELS],
-    #[cfg(not(micropt_small_ram))]
-    sampled: [u32; TILE_PIXELS.div_ceil(32)],
-    /// (seed key, tile x, tile y, tile width) of the samplers held.
-    #[cfg(not(micropt_small_ram))]
-    samplers_of: (u64, u32, u32, u32),
 }
 
 impl Default for TileAccum {
@@ -49,12 +34,6 @@ impl TileAccum {
             lum2: [0.0; TILE_PIXELS],
             count: [0; TILE_PIXELS],
             len: 0,
-            #[cfg(not(micropt_small_ram))]
-            samplers: [PixelSampler::EMPTY; TILE_PIXELS],
-            #[cfg(not(micropt_small_ram))]
-            sampled: [0; TILE_PIXELS.div_ceil(32)],
-            #[cfg(not(micropt_small_ram))]
-            samplers_of: (0, 0, 0, 0),
         }
     }
 
@@ -117,17 +96,6 @@ impl TileAccum {
         stats: &mut Stats,
     ) -> u32 {
         let w = tile.w.max(1);
-        // the samplers kept are this render's and tile's, or none are
-        #[cfg(not(micropt_small_ram))]
-        let keep = {
-            let of = (r.seed_key(), tile.x, tile.y, tile.w);
-            if of != self.samplers_of {
-                self.sampled = [0; TILE_PIXELS.div_ceil(32)];
-                self.samplers_of = of;
-            }
-            // a coarse preview's grid is not the tile's pixels
-            step == 1
-        };
         let mut added = 0u32;
         for i in pixels {
             let k = match shares.get_mut(i) {
@@ -153,27 +121,9 @@ impl TileAccum {
             ) else {
                 break;
             };
-            #[cfg(not(micropt_small_ram))]
-            let own;
-            #[cfg(not(micropt_small_ram))]
-            let sampler = match (self.samplers.get_mut(i), self.sampled.get_mut(i / 32)) {
-                (Some(s), Some(bits)) if keep => {
-                    let bit = 1u32 << (i % 32);
-                    if *bits & bit == 0 {
-                        *s = r.pixel_sampler(x, y);
-                        *bits |= bit;
-                    }
-                    &*s
-                }
-                _ => {
-                    own = r.pixel_sampler(x, y);
-                    &own
-                }
-            };
-            #[cfg(micropt_small_ram)]
-            let sampler = &r.pixel_sampler(x, y);
+            let pixel = r.pixel(x, y);
             for _ in 0..k {
-                let c = r.sample_from(sampler, x, y, *n, stats);
+                let c = r.sample_in(&pixel, x, y, *n, stats);
                 let l = c.luminance();
                 *sum += c;
                 *l2 += l * l;

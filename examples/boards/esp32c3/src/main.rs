@@ -3,7 +3,7 @@
 //! by tile, straight to the panel through `mipidsi`.
 //!
 //! The core's single-core budget executor (`micropt::budget::render_budget`)
-//! keeps one 16×16 tile of sample accumulators (`TileAccum`, 18 KiB, on the
+//! keeps one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB, on the
 //! stack) and draws every tile twice, tone-mapped, dithered, with one window
 //! write: first a preview (sample 0 of one pixel per 2×2 block) of the whole
 //! image, then each tile refined to its share of [`BUDGET`] with adaptive

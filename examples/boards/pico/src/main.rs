@@ -9,7 +9,7 @@
 //! [`BUDGET`] with adaptive allocation, each core taking the next tile from
 //! one queue. The M0+ has no atomic read-modify-write, so the queue
 //! (`queue.rs`) counts under the RP2040's hardware spinlock. Each core keeps
-//! one 16×16 tile of sample accumulators (`TileAccum`, 18 KiB, static) and
+//! one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB, static) and
 //! draws its finished tiles itself, holding the panel for one window write.
 //! The image does not depend on which core rendered which tile: with
 //! `Budget::Spp(16)` it is the host's `micropt render scenes/cornell.scene

@@ -8,7 +8,7 @@
 //! of one pixel per 2×2 block), then every tile refined to its share of
 //! [`BUDGET`] with adaptive allocation, each core taking the next tile from
 //! one queue of atomic counters (`micropt::multicore::AtomicQueue`). Each
-//! core keeps one 16×16 tile of sample accumulators (`TileAccum`, 18 KiB,
+//! core keeps one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB,
 //! static) and draws its finished tiles itself, holding the panel for one
 //! window write. The image does not depend on which core rendered which tile:
 //! with `Budget::Spp(16)` it is the host's `micropt render
