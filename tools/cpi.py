@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Cycles per instruction of a Cortex-M33 firmware run, from its QEMU profile.
 
-    tools/cpi.py ELF OUT [--paths N] [--mhz 150] [--frame-paths 979200]
+    tools/cpi.py ELF OUT [--paths N] [--mhz 150] [--frame-paths 936000]
                  [--speedup 1.961] [--miss 40]
 
 OUT is the directory tools/profile.sh wrote (counts.txt: executions per
@@ -159,8 +159,9 @@ def main():
     ap.add_argument("out", help="tools/profile.sh's output directory")
     ap.add_argument("--paths", type=float, help="traced paths (default: from OUT/run.txt)")
     ap.add_argument("--mhz", type=float, default=150.0, help="core clock (default 150, the RP2350's)")
-    ap.add_argument("--frame-paths", type=float, default=240 * 240 * 17,
-                    help="paths of the frame (default 240x240 x 17: 16 spp plus the preview's sample)")
+    ap.add_argument("--frame-paths", type=float, default=240 * 240 * 16 + 120 * 120,
+                    help="paths of the frame (default 240x240 at 16 spp plus the preview's "
+                         "sample per 2x2 block: 936,000)")
     ap.add_argument("--speedup", type=float, default=1.0, help="two-core speed-up (the AN521's)")
     ap.add_argument("--miss", type=float, default=0.0,
                     help="cycles per cache miss (the model's misses, else the accesses beyond the hottest 16 KiB)")

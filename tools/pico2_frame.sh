@@ -8,8 +8,9 @@
 # .ci/targets.sh's size), 16 spp, seed 0, cornell's features; runs it
 # under tools/profile.sh (per-instruction counts, taken
 # branches, code-region reads, XIP cache model) and prints tools/cpi.py's
-# instruction mix, cycles per path and frame times: 240x240 (979,200 paths)
-# and the Pico 2 panel's 320x240 (1,305,600), at 150 MHz over two cores (the
+# instruction mix, cycles per path and frame times: 240x240 (936,000 paths:
+# 16 spp and the preview's sample per 2x2 block) and the Pico 2 panel's
+# 320x240 (1,248,000), at 150 MHz over two cores (the
 # AN521 speed-up at SIZE if tools/frame.sh measured it, else that of
 # target/dualcore/an521.size if .ci/dualcore.sh ran, else
 # firmware/expected/an521.size). With the host CLI built (target/debug/
@@ -51,4 +52,4 @@ echo "two-core speed-up $speedup ($an521)"
 tools/cpi.py "$elf" "$out" --speedup "$speedup" --miss 100
 echo
 echo "320x240 (the Pico 2's panel):"
-tools/cpi.py "$elf" "$out" --speedup "$speedup" --frame-paths $((320 * 240 * 17)) | grep -E 'CPI|instruction per cycle'
+tools/cpi.py "$elf" "$out" --speedup "$speedup" --frame-paths $((320 * 240 * 16 + 160 * 120)) | grep -E 'CPI|instruction per cycle'
