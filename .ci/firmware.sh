@@ -211,7 +211,7 @@ render=$((marks[3] - marks[2]))
     echo "insns_dump: $((marks[4] - marks[3]))  (semihosting write of the image)"
     echo "insns_after: $((insns - marks[4]))  (stack scan, summary line, exit)"
     echo "samples: $samples  (in the image: the budget)"
-    echo "paths: $paths  (traced: samples + one recomputed preview sample per pixel)"
+    echo "paths: $paths  (traced: samples + the preview's sample per 2x2 block)"
     echo "insns_per_path: $((render / paths))"
     echo "insns_per_sample: $((render / samples))"
 } >"$OUT/cornell.size"
