@@ -153,7 +153,8 @@ pub struct Options {
     /// at a path's first non-delta vertex, its bounce, its light choice and
     /// its light sample; independent random numbers otherwise.
     pub stratified: bool,
-    /// Use micromath's approximate trigonometry in direction sampling.
+    /// Use micromath's approximate trigonometry in direction sampling (in a
+    /// build with the `fast-math` feature; without it, ignored).
     pub fast_math: bool,
     /// Bounces before Russian roulette starts.
     pub rr_start: u32,
