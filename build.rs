@@ -316,6 +316,12 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
     ];
     let mut skip_on = [true; SKIPS.len()];
     let skip_off = var("MICROPT_FW_SKIP_OFF").unwrap_or_default();
+    if !skip_off.trim().is_empty() && var("CARGO_FEATURE_TUNABLE").is_none() {
+        return Err(format!(
+            "MICROPT_FW_SKIP_OFF={skip_off:?} needs the `tunable` feature: without it \
+             every skip is compiled in"
+        ));
+    }
     for name in skip_off.split(',').map(str::trim).filter(|n| !n.is_empty()) {
         if name == "all" {
             skip_on = [false; SKIPS.len()];

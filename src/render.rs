@@ -110,8 +110,10 @@ impl<'a> Renderer<'a> {
         self
     }
 
-    /// Sets the integrator options.
+    /// Sets the integrator options (those a build runs with:
+    /// [`Options::effective`]).
     pub fn options(mut self, options: Options) -> Self {
+        let options = options.effective();
         self.options = options;
         if !cfg!(micropt_no_bvh) {
             self.scene.bvh = if options.skip.bvh { self.tree } else { None };

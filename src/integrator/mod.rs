@@ -206,6 +206,33 @@ impl Default for Options {
     }
 }
 
+impl Options {
+    /// The options a render runs with: these, in a build with the
+    /// `tunable` feature; without it, [`Options::default`]'s strategy,
+    /// stratification, fast math and skips, with these roulette settings,
+    /// depth cap and `highlights` (a lean build's integrator has those
+    /// choices compiled in as constants). [`Renderer::options`] keeps the
+    /// effective options, so [`Renderer::get_options`] tells what a render
+    /// uses.
+    ///
+    /// [`Renderer::options`]: crate::Renderer::options
+    /// [`Renderer::get_options`]: crate::Renderer::get_options
+    pub fn effective(self) -> Self {
+        if cfg!(feature = "tunable") {
+            self
+        } else {
+            let d = Self::default();
+            Self {
+                strategy: d.strategy,
+                stratified: d.stratified,
+                fast_math: d.fast_math,
+                skip: d.skip,
+                ..self
+            }
+        }
+    }
+}
+
 /// Power heuristic weight of strategy `a` against `b` (β = 2), written as
 /// `1 / (1 + (b/a)²)` so that huge pdfs (tiny lights) cannot overflow.
 #[inline(always)]
@@ -232,6 +259,7 @@ pub fn radiance(
     opts: &Options,
     stats: &mut Stats,
 ) -> Color {
+    let opts = &opts.effective();
     radiance_planned(
         scene,
         &PathPlan::new(scene, opts),
@@ -271,10 +299,50 @@ pub(crate) fn radiance_planned(
     let tree = !cfg!(micropt_no_bvh) && scene.bvh.is_some();
     // a firmware for one light has no several-lights variant
     let many = !cfg!(micropt_one_light) && plan.many;
+    // without run-time variants, the switches as constants: the integrator
+    // then holds no code for the others
+    #[cfg(not(feature = "tunable"))]
+    let fixed = opts.effective();
+    #[cfg(not(feature = "tunable"))]
+    let opts = &fixed;
     match (many, tree) {
         (true, false) => trace::<true, false>(&ctx, ray, stream, opts, stats),
         (false, false) => trace::<false, false>(&ctx, ray, stream, opts, stats),
         (true, true) => trace::<true, true>(&ctx, ray, stream, opts, stats),
         (false, true) => trace::<false, true>(&ctx, ray, stream, opts, stats),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn effective_options_keep_the_switches_only_when_tunable() {
+        let asked = Options {
+            strategy: Strategy::BsdfOnly,
+            stratified: false,
+            fast_math: true,
+            skip: Skip::NONE,
+            rr_gain: 2.0,
+            max_depth: 7,
+            highlights: false,
+            ..Options::default()
+        };
+        let got = asked.effective();
+        if cfg!(feature = "tunable") {
+            assert_eq!(got, asked);
+        } else {
+            let d = Options::default();
+            assert_eq!(
+                (got.strategy, got.stratified, got.fast_math, got.skip),
+                (d.strategy, d.stratified, d.fast_math, d.skip)
+            );
+            // the rest as asked
+            assert_eq!(
+                (got.rr_gain, got.max_depth, got.highlights),
+                (2.0, 7, false)
+            );
+        }
     }
 }
