@@ -198,14 +198,7 @@ pub(super) fn split(
     w: impl Fn(usize) -> f32,
     mut give: impl FnMut(usize, u64),
 ) {
-    let weight = |i: usize| {
-        let v = w(i);
-        if v.is_finite() {
-            math::max(v, 0.0)
-        } else {
-            0.0
-        }
-    };
+    let weight = |i: usize| sanitized(w(i));
     let mut sum = 0.0f32;
     for i in 0..n {
         sum += weight(i);
@@ -225,6 +218,46 @@ pub(super) fn split(
     let (mut cum, mut prev) = (0.0f32, 0u64);
     for i in 0..n {
         cum += eff(i);
+        let a = cumulative_share(total, cum, cum_total, i + 1 == n);
+        give(i, a.saturating_sub(prev));
+        prev = a;
+    }
+}
+
+/// A weight of [`split`]: NaN and infinities count as 0, negatives as 0.
+#[inline(always)]
+fn sanitized(v: f32) -> f32 {
+    if v.is_finite() {
+        math::max(v, 0.0)
+    } else {
+        0.0
+    }
+}
+
+/// [`split`] of weights already made [`sanitized`] and summed in order
+/// (`sum`), over `w.len()` items: the same shares, with each weight read
+/// once per pass. `w` is overwritten with the floored weights.
+fn split_sanitized(
+    w: &mut [f32],
+    sum: f32,
+    total: u64,
+    floor: f32,
+    mut give: impl FnMut(usize, u64),
+) {
+    let n = w.len();
+    let mean = sum / math::max(n as f32, 1.0);
+    let mut cum_total = 0.0f32;
+    for v in w.iter_mut() {
+        *v = if mean > 0.0 {
+            math::max(*v, floor * mean)
+        } else {
+            1.0
+        };
+        cum_total += *v;
+    }
+    let (mut cum, mut prev) = (0.0f32, 0u64);
+    for (i, v) in w.iter().enumerate() {
+        cum += *v;
         let a = cumulative_share(total, cum, cum_total, i + 1 == n);
         give(i, a.saturating_sub(prev));
         prev = a;
@@ -393,27 +426,25 @@ impl Renderer<'_> {
             } else {
                 left / u64::from(rounds - r)
             };
-            let mut sig = self.pixel_sigmas(acc, opts);
+            let (mut sig, sum_sig) = self.pixel_sigmas(acc, opts);
             // water-filling: the counts the estimates call for at the end of
-            // the tile's budget; this round goes by each pixel's deficit
+            // the tile's budget; this round goes by each pixel's deficit,
+            // computed once in place of its sigma, as `split` weighs it
+            // (the pass that sums the weights)
             let final_total = (acc.total() + left) as f32;
-            let mut sum_sig = 0.0f32;
-            for v in sig.iter().take(n) {
-                sum_sig += *v;
-            }
-            // each pixel's deficit computed once, in place of its sigma
-            // (`split` reads a weight three times)
+            let mut sum_deficit = 0.0f32;
             for (i, v) in sig.iter_mut().enumerate().take(n) {
                 let want = if sum_sig > 0.0 {
                     final_total * *v / sum_sig
                 } else {
                     final_total / n as f32
                 };
-                *v = want - acc.count(i) as f32;
+                *v = sanitized(want - acc.count(i) as f32);
+                sum_deficit += *v;
             }
-            let deficit = |i: usize| sig.get(i).copied().unwrap_or(0.0);
             let mut shares = [0u32; TILE_PIXELS];
-            split(n, this, opts.floor, deficit, |i, s| {
+            let deficits = sig.get_mut(..n).unwrap_or_default();
+            split_sanitized(deficits, sum_deficit, this, opts.floor, |i, s| {
                 if let Some(x) = shares.get_mut(i) {
                     *x = s.min(u64::from(u32::MAX)) as u32;
                 }
@@ -448,8 +479,8 @@ impl Renderer<'_> {
 
     /// Each pixel's estimated standard deviation: its luminance variance
     /// shrunk toward the tile's mean variance (a prior worth
-    /// [`AdaptiveOptions::prior`] samples).
-    fn pixel_sigmas(&self, acc: &TileAccum, opts: &AdaptiveOptions) -> [f32; TILE_PIXELS] {
+    /// [`AdaptiveOptions::prior`] samples); and their sum, in pixel order.
+    fn pixel_sigmas(&self, acc: &TileAccum, opts: &AdaptiveOptions) -> ([f32; TILE_PIXELS], f32) {
         let n = acc.len;
         // each variance computed once, kept in `sig` until it becomes the
         // pixel's sigma
@@ -460,11 +491,13 @@ impl Renderer<'_> {
             mean_var += *s;
         }
         mean_var /= math::max(n as f32, 1.0);
+        let mut sum = 0.0f32;
         for (i, s) in sig.iter_mut().enumerate().take(n) {
             let k = acc.count(i).saturating_sub(1) as f32;
             *s = math::sqrt((*s * k + opts.prior * mean_var) / (k + opts.prior));
+            sum += *s;
         }
-        sig
+        (sig, sum)
     }
 }
 
@@ -510,6 +543,44 @@ pub fn tile_share(width: u32, height: u32, total: u64, i: usize) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The in-place split gives `split`'s shares, bit for bit, for weights
+    /// with NaN, infinities, negatives and zeros, every floor and total.
+    #[test]
+    fn split_sanitized_is_split() {
+        let mut x = 0x1234_5678u32;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x
+        };
+        for case in 0..400 {
+            let n = 1 + (next() % 256) as usize;
+            let mut w = [0.0f32; TILE_PIXELS];
+            for v in w.iter_mut().take(n) {
+                *v = match next() % 16 {
+                    0 => f32::NAN,
+                    1 => f32::INFINITY,
+                    2 => -3.5,
+                    3 | 4 => 0.0,
+                    _ => (next() >> 8) as f32 * 1e-4 * if case % 3 == 0 { -1.0 } else { 1.0 },
+                };
+            }
+            let total = u64::from(next() % 5000);
+            let floor = [0.0, 0.1, 0.25, 1.0][case % 4];
+            let mut want = [0u64; TILE_PIXELS];
+            split(n, total, floor, |i| w[i], |i, s| want[i] = s);
+            let mut sum = 0.0f32;
+            for v in w.iter_mut().take(n) {
+                *v = sanitized(*v);
+                sum += *v;
+            }
+            let mut got = [0u64; TILE_PIXELS];
+            split_sanitized(&mut w[..n], sum, total, floor, |i, s| got[i] = s);
+            assert_eq!(got[..n], want[..n], "case {case}, n {n}, total {total}");
+        }
+    }
 
     /// The share's conversion through `u32` gives what the direct `as u64`
     /// gives, below, at and above 2^32 (totals of a whole image can pass
