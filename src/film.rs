@@ -99,7 +99,7 @@ pub fn srgb_encode(v: f32) -> f32 {
     } else if v >= 1.0 {
         1.0
     } else {
-        1.055 * math::powf(v, 1.0 / 2.4) - 0.055
+        1.055 * math::srgb_power(v) - 0.055
     }
 }
 
