@@ -55,7 +55,12 @@ pub fn pixel_key_of(seed_key: u64, x: u32, y: u32) -> u64 {
 /// never 1.
 #[inline(always)]
 pub fn to_unit(v: u32) -> f32 {
-    (v >> 8) as f32 * (1.0 / 16_777_216.0)
+    if math::SOFT_FLOAT {
+        // the same value from the bits: no conversion and product calls
+        math::soft::unit_u24(v >> 8)
+    } else {
+        (v >> 8) as f32 * (1.0 / 16_777_216.0)
+    }
 }
 
 /// Laine–Karras style hash permutation that only lets higher bits depend on

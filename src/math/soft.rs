@@ -532,6 +532,43 @@ pub fn from_u32(x: u32) -> f32 {
     f32::from_bits(from_magnitude(0, x))
 }
 
+/// `n · 2⁻²⁴` for `n < 2²⁴` (exact: 24 bits fit the significand), the
+/// samplers' uniform floats, built on the bits: no conversion and no
+/// product call, whose results it equals.
+#[inline(always)]
+pub fn unit_u24(n: u32) -> f32 {
+    let n = n & 0x00ff_ffff;
+    if n == 0 {
+        return 0.0;
+    }
+    // the leading bit to bit 23, in steps (no count-leading-zeros
+    // instruction on ARMv6-M); `e` the biased exponent of the result, whose
+    // value is `m · 2^(e − 150)` with `m` in [2²³, 2²⁴)
+    let mut m = n;
+    let mut e = 126u32;
+    if m < 1 << 8 {
+        m <<= 16;
+        e -= 16;
+    }
+    if m < 1 << 16 {
+        m <<= 8;
+        e -= 8;
+    }
+    if m < 1 << 20 {
+        m <<= 4;
+        e -= 4;
+    }
+    if m < 1 << 22 {
+        m <<= 2;
+        e -= 2;
+    }
+    if m < 1 << 23 {
+        m <<= 1;
+        e -= 1;
+    }
+    f32::from_bits((e << 23) | (m & FRAC))
+}
+
 /// `x as f32` for a signed integer, correctly rounded.
 #[inline]
 pub fn from_i32(x: i32) -> f32 {

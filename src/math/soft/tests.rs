@@ -274,3 +274,13 @@ fn random_operands_match_the_fpu() {
 fn random_operands_match_the_fpu_1e9() {
     random_pairs(1_000_000_000, 2);
 }
+
+/// Every 24-bit integer's `n · 2⁻²⁴` from the bits equals the FPU's
+/// conversion and product (the samplers' floats on the soft-float targets).
+#[test]
+fn unit_u24_is_the_conversion_for_every_input() {
+    for n in 0..1u32 << 24 {
+        let want = n as f32 * (1.0 / 16_777_216.0);
+        assert_eq!(unit_u24(n).to_bits(), want.to_bits(), "{n}");
+    }
+}
