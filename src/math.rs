@@ -118,6 +118,13 @@ pub fn abs(x: f32) -> f32 {
     f32::from_bits(x.to_bits() & 0x7fff_ffff)
 }
 
+/// `2x`: the product, or on targets without an FPU [`soft::twice`] (the
+/// same bits without a call for a normal `x`).
+#[inline(always)]
+pub fn twice(x: f32) -> f32 {
+    if SOFT_FLOAT { soft::twice(x) } else { 2.0 * x }
+}
+
 /// The magnitude of `x` with the sign of `s`.
 #[inline(always)]
 pub fn copysign(x: f32, s: f32) -> f32 {

@@ -358,8 +358,8 @@ pub fn concentric_disk(u1: f32, u2: f32, fast: bool) -> (f32, f32, f32) {
     // 1 − 2⁻²⁴: with u in [0, 1) on the 2⁻²⁴ grid, a is an odd multiple of
     // 2⁻²⁴ in (−1, 1)
     const ONE_BELOW: f32 = 1.0 - 1.0 / 16_777_216.0;
-    let a = 2.0 * u1 - ONE_BELOW;
-    let b = 2.0 * u2 - ONE_BELOW;
+    let a = math::twice(u1) - ONE_BELOW;
+    let b = math::twice(u2) - ONE_BELOW;
     // the larger magnitude is the radius: one quotient of the chosen pair
     // (not both quotients and a choice between them, which is what the
     // compiler makes of two quotients in two branches)

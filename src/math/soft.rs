@@ -532,6 +532,19 @@ pub fn from_u32(x: u32) -> f32 {
     f32::from_bits(from_magnitude(0, x))
 }
 
+/// `2x`, correctly rounded: one integer addition to the exponent field for
+/// a normal `x` below 2¹²⁶ (where doubling is exact), [`mul`] otherwise.
+#[inline(always)]
+pub fn twice(x: f32) -> f32 {
+    let b = x.to_bits();
+    let e = b & INF;
+    if e != 0 && e < 0x7f00_0000 {
+        f32::from_bits(b + IMPLICIT)
+    } else {
+        mul(x, 2.0)
+    }
+}
+
 /// `n · 2⁻²⁴` for `n < 2²⁴` (exact: 24 bits fit the significand), the
 /// samplers' uniform floats, built on the bits: no conversion and no
 /// product call, whose results it equals.
