@@ -125,6 +125,13 @@ pub fn twice(x: f32) -> f32 {
     if SOFT_FLOAT { soft::twice(x) } else { 2.0 * x }
 }
 
+/// `x / 2`: the product by 0.5, or on targets without an FPU
+/// [`soft::half`] (the same bits without a call where the half is normal).
+#[inline(always)]
+pub fn half(x: f32) -> f32 {
+    if SOFT_FLOAT { soft::half(x) } else { 0.5 * x }
+}
+
 /// The magnitude of `x` with the sign of `s`.
 #[inline(always)]
 pub fn copysign(x: f32, s: f32) -> f32 {
@@ -360,7 +367,7 @@ pub fn sincos_turns(t: f32) -> (f32, f32) {
 pub fn sincos_quarter(x: f32) -> (f32, f32) {
     let z = x * x;
     let s = x + x * z * (-1.666_665_5e-1 + z * (8.332_161e-3 + z * -1.951_529_6e-4));
-    let c = 1.0 - 0.5 * z + z * z * (4.166_664_6e-2 + z * (-1.388_731_6e-3 + z * 2.443_315_7e-5));
+    let c = 1.0 - half(z) + z * z * (4.166_664_6e-2 + z * (-1.388_731_6e-3 + z * 2.443_315_7e-5));
     (s, c)
 }
 

@@ -120,7 +120,7 @@ pub(super) fn nee<const MANY: bool, const TREE: bool, B: Lobe>(
         return Color::ZERO;
     }
     let (s, pi_pdf) = lobe.eval(wo, n, ls.dir, cos);
-    let a = 2.0 * pi_pdf * ls.omc_max;
+    let a = math::twice(pi_pdf) * ls.omc_max;
     let a = if MANY { a / c.p_sel } else { a };
     let w = match opts.strategy {
         // a/(1 + a²) = 1/(a + 1/a): the second form for the huge `a` of a

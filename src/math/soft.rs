@@ -545,6 +545,19 @@ pub fn twice(x: f32) -> f32 {
     }
 }
 
+/// `x / 2`, correctly rounded: one integer subtraction from the exponent
+/// field where the half is normal (exact), [`mul`] otherwise.
+#[inline(always)]
+pub fn half(x: f32) -> f32 {
+    let b = x.to_bits();
+    let e = b & INF;
+    if e > IMPLICIT && e < INF {
+        f32::from_bits(b - IMPLICIT)
+    } else {
+        mul(x, 0.5)
+    }
+}
+
 /// `n · 2⁻²⁴` for `n < 2²⁴` (exact: 24 bits fit the significand), the
 /// samplers' uniform floats, built on the bits: no conversion and no
 /// product call, whose results it equals.
