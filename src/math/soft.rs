@@ -567,32 +567,10 @@ pub fn unit_u24(n: u32) -> f32 {
     if n == 0 {
         return 0.0;
     }
-    // the leading bit to bit 23, in steps (no count-leading-zeros
-    // instruction on ARMv6-M); `e` the biased exponent of the result, whose
-    // value is `m · 2^(e − 150)` with `m` in [2²³, 2²⁴)
-    let mut m = n;
-    let mut e = 126u32;
-    if m < 1 << 8 {
-        m <<= 16;
-        e -= 16;
-    }
-    if m < 1 << 16 {
-        m <<= 8;
-        e -= 8;
-    }
-    if m < 1 << 20 {
-        m <<= 4;
-        e -= 4;
-    }
-    if m < 1 << 22 {
-        m <<= 2;
-        e -= 2;
-    }
-    if m < 1 << 23 {
-        m <<= 1;
-        e -= 1;
-    }
-    f32::from_bits((e << 23) | (m & FRAC))
+    // `s = n · 2^k` with its leading bit at bit 31 (k ≥ 8): the value is
+    // `1.f · 2^(7 − k)`, and the significand's low 8 bits are zeros
+    let (s, k) = to_bit31(n);
+    f32::from_bits(((134 - k) << 23) | ((s >> 8) & FRAC))
 }
 
 /// `x as f32` for a signed integer, correctly rounded.
@@ -607,32 +585,38 @@ fn from_magnitude(sign: u32, x: u32) -> u32 {
     if x == 0 {
         return 0;
     }
-    // normalise to the leading bit at bit 31, in steps (no count-leading-
-    // zeros instruction on ARMv6-M); `e` the biased exponent of 2³¹, less
-    // one, less the shift
-    let mut s = x;
-    let mut e = 157;
+    // 157: the biased exponent of 2³¹, less one (the significand's leading
+    // bit is added into the exponent field by the rounding)
+    let (s, k) = to_bit31(x);
+    round_even(sign | ((157 - k) << 23), s, 0)
+}
+
+/// `(x << k, k)` with the leading bit of a non-zero `x` moved to bit 31,
+/// in steps (no count-leading-zeros instruction on ARMv6-M).
+#[inline(always)]
+fn to_bit31(x: u32) -> (u32, u32) {
+    let (mut s, mut k) = (x, 0);
     if s < 1 << 16 {
         s <<= 16;
-        e -= 16;
+        k += 16;
     }
     if s < 1 << 24 {
         s <<= 8;
-        e -= 8;
+        k += 8;
     }
     if s < 1 << 28 {
         s <<= 4;
-        e -= 4;
+        k += 4;
     }
     if s < 1 << 30 {
         s <<= 2;
-        e -= 2;
+        k += 2;
     }
     if s < 1 << 31 {
         s <<= 1;
-        e -= 1;
+        k += 1;
     }
-    round_even(sign | (e << 23), s, 0)
+    (s, k)
 }
 
 /// `1 / √N` at the middle of each of the 96 intervals of `N` in [2²⁴, 2²⁶)

@@ -285,16 +285,16 @@ fn unit_u24_is_the_conversion_for_every_input() {
     }
 }
 
-/// Doubling on the exponent gives the FPU's product, NaN-ness aside (a
-/// NaN's bits are canonical here), across every class of input.
-#[test]
-fn twice_is_the_product() {
-    let mut rng = Rng(7);
+/// `op(v)` is the FPU's `factor · v`, NaN-ness aside (a NaN's bits are
+/// canonical here), on a million random pairs of every class and on `edges`
+/// and their negations.
+fn is_the_product_by(op: fn(f32) -> f32, factor: f32, seed: u64, edges: &[f32]) {
+    let mut rng = Rng(seed);
     let check = |v: f32| {
-        let (got, want) = (twice(v), 2.0 * v);
+        let (got, want) = (op(v), factor * v);
         assert!(
             got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
-            "{v:e}"
+            "{v:e} times {factor}"
         );
     };
     for _ in 0..1_000_000 {
@@ -302,47 +302,48 @@ fn twice_is_the_product() {
         check(f32::from_bits(a));
         check(f32::from_bits(b));
     }
-    for v in [
-        0.0f32,
-        1e-45,
-        1.175_494_2e-38,
-        1.701_411_7e38,
-        1.701_411_8e38,
-        f32::MAX,
-        f32::INFINITY,
-    ] {
+    for &v in edges {
         check(v);
         check(-v);
     }
 }
 
-/// Halving on the exponent gives the FPU's product by 0.5, NaN-ness aside,
-/// across every class of input (subnormal results rounded by the product).
+/// Doubling on the exponent gives the FPU's product, across every class of
+/// input.
+#[test]
+fn twice_is_the_product() {
+    is_the_product_by(
+        twice,
+        2.0,
+        7,
+        &[
+            0.0,
+            1e-45,
+            1.175_494_2e-38,
+            1.701_411_7e38,
+            1.701_411_8e38,
+            f32::MAX,
+            f32::INFINITY,
+        ],
+    );
+}
+
+/// Halving on the exponent gives the FPU's product by 0.5, across every
+/// class of input (subnormal results rounded by the product).
 #[test]
 fn half_is_the_product() {
-    let mut rng = Rng(11);
-    let check = |v: f32| {
-        let (got, want) = (half(v), 0.5 * v);
-        assert!(
-            got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
-            "{v:e}"
-        );
-    };
-    for _ in 0..1_000_000 {
-        let (a, b) = rng.pair();
-        check(f32::from_bits(a));
-        check(f32::from_bits(b));
-    }
-    for v in [
-        0.0f32,
-        1e-45,
-        3e-45,
-        1.175_494_2e-38,
-        2.350_988_7e-38,
-        f32::MAX,
-        f32::INFINITY,
-    ] {
-        check(v);
-        check(-v);
-    }
+    is_the_product_by(
+        half,
+        0.5,
+        11,
+        &[
+            0.0,
+            1e-45,
+            3e-45,
+            1.175_494_2e-38,
+            2.350_988_7e-38,
+            f32::MAX,
+            f32::INFINITY,
+        ],
+    );
 }
