@@ -196,32 +196,14 @@ pub(super) fn split(
     total: u64,
     floor: f32,
     w: impl Fn(usize) -> f32,
-    mut give: impl FnMut(usize, u64),
+    give: impl FnMut(usize, u64),
 ) {
     let weight = |i: usize| sanitized(w(i));
     let mut sum = 0.0f32;
     for i in 0..n {
         sum += weight(i);
     }
-    let mean = sum / math::max(n as f32, 1.0);
-    let eff = |i: usize| {
-        if mean > 0.0 {
-            math::max(weight(i), floor * mean)
-        } else {
-            1.0
-        }
-    };
-    let mut cum_total = 0.0f32;
-    for i in 0..n {
-        cum_total += eff(i);
-    }
-    let (mut cum, mut prev) = (0.0f32, 0u64);
-    for i in 0..n {
-        cum += eff(i);
-        let a = cumulative_share(total, cum, cum_total, i + 1 == n);
-        give(i, a.saturating_sub(prev));
-        prev = a;
-    }
+    split_sanitized(n, sum, total, floor, weight, give);
 }
 
 /// A weight of [`split`]: NaN and infinities count as 0, negatives as 0.
@@ -234,30 +216,33 @@ fn sanitized(v: f32) -> f32 {
     }
 }
 
-/// [`split`] of weights already made [`sanitized`] and summed in order
-/// (`sum`), over `w.len()` items: the same shares, with each weight read
-/// once per pass. `w` is overwritten with the floored weights.
+/// [`split`] of weights `w` already made [`sanitized`], whose sum in
+/// index order is `sum`: the passes after the sum, so that a caller that
+/// computes its weights (and their sum) once reads each of them once more
+/// per pass instead of recomputing it.
 fn split_sanitized(
-    w: &mut [f32],
+    n: usize,
     sum: f32,
     total: u64,
     floor: f32,
+    w: impl Fn(usize) -> f32,
     mut give: impl FnMut(usize, u64),
 ) {
-    let n = w.len();
     let mean = sum / math::max(n as f32, 1.0);
-    let mut cum_total = 0.0f32;
-    for v in w.iter_mut() {
-        *v = if mean > 0.0 {
-            math::max(*v, floor * mean)
+    let eff = |i: usize| {
+        if mean > 0.0 {
+            math::max(w(i), floor * mean)
         } else {
             1.0
-        };
-        cum_total += *v;
+        }
+    };
+    let mut cum_total = 0.0f32;
+    for i in 0..n {
+        cum_total += eff(i);
     }
     let (mut cum, mut prev) = (0.0f32, 0u64);
-    for (i, v) in w.iter().enumerate() {
-        cum += *v;
+    for i in 0..n {
+        cum += eff(i);
         let a = cumulative_share(total, cum, cum_total, i + 1 == n);
         give(i, a.saturating_sub(prev));
         prev = a;
@@ -443,8 +428,8 @@ impl Renderer<'_> {
                 sum_deficit += *v;
             }
             let mut shares = [0u32; TILE_PIXELS];
-            let deficits = sig.get_mut(..n).unwrap_or_default();
-            split_sanitized(deficits, sum_deficit, this, opts.floor, |i, s| {
+            let deficit = |i: usize| sig.get(i).copied().unwrap_or(0.0);
+            split_sanitized(n, sum_deficit, this, opts.floor, deficit, |i, s| {
                 if let Some(x) = shares.get_mut(i) {
                     *x = s.min(u64::from(u32::MAX)) as u32;
                 }
@@ -544,8 +529,9 @@ pub fn tile_share(width: u32, height: u32, total: u64, i: usize) -> u64 {
 mod tests {
     use super::*;
 
-    /// The in-place split gives `split`'s shares, bit for bit, for weights
-    /// with NaN, infinities, negatives and zeros, every floor and total.
+    /// `split_sanitized` after a caller's own sanitising pass gives `split`'s
+    /// shares, bit for bit, for weights with NaN, infinities, negatives and
+    /// zeros, every floor and total.
     #[test]
     fn split_sanitized_is_split() {
         let mut x = 0x1234_5678u32;
@@ -577,7 +563,7 @@ mod tests {
                 sum += *v;
             }
             let mut got = [0u64; TILE_PIXELS];
-            split_sanitized(&mut w[..n], sum, total, floor, |i, s| got[i] = s);
+            split_sanitized(n, sum, total, floor, |i| w[i], |i, s| got[i] = s);
             assert_eq!(got[..n], want[..n], "case {case}, n {n}, total {total}");
         }
     }
