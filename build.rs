@@ -303,7 +303,7 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
         Some("1") => true,
         Some(s) => return Err(format!("MICROPT_FW_UNIFORM={s:?} is not 0 or 1")),
     };
-    const SKIPS: [&str; 9] = [
+    const SKIPS: [&str; 10] = [
         "shadow_occluders",
         "view_culling",
         "specialize",
@@ -313,6 +313,7 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
         "slabs",
         "bvh",
         "windows",
+        "whole_light",
     ];
     let mut skip_on = [true; SKIPS.len()];
     let skip_off = var("MICROPT_FW_SKIP_OFF").unwrap_or_default();

@@ -340,9 +340,9 @@ mod tests {
     /// by its walls, so windows; furnace: no light.)
     #[test]
     fn the_per_render_plan_decides_as_each_path_would() {
-        let mut skips = [Skip::ALL; 11];
+        let mut skips = [Skip::ALL; 12];
         skips[1] = Skip::NONE;
-        let offs: [fn(&mut Skip); 9] = [
+        let offs: [fn(&mut Skip); 10] = [
             |s| s.shadow_occluders = false,
             |s| s.view_culling = false,
             |s| s.specialize = false,
@@ -352,6 +352,7 @@ mod tests {
             |s| s.slabs = false,
             |s| s.bvh = false,
             |s| s.windows = false,
+            |s| s.whole_light = false,
         ];
         for (skip, off) in skips.iter_mut().skip(2).zip(offs) {
             off(skip);

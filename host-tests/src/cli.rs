@@ -185,7 +185,9 @@ struct RenderArgs {
     uniform: bool,
     /// Diagnostics: do the work the scene analysis would skip, to measure
     /// what a skip saves. Comma-separated: shadow-occluders, view-culling,
-    /// specialize, horizon, unreachable-lights, closed, slabs, windows, bvh, or all.
+    /// specialize, horizon, unreachable-lights, closed, slabs, windows, bvh,
+    /// whole-light (this one changes the estimator: the light is sampled
+    /// where the closed form would give its direct light), or all.
     #[arg(long, value_name = "LIST", value_parser = parse_skips)]
     no_skip: Option<Skip>,
     /// Diagnostics: the estimator at non-delta vertices: mis (light and BSDF
@@ -275,10 +277,11 @@ fn parse_skips(s: &str) -> Result<Skip, String> {
             "slabs" => k.slabs = false,
             "windows" => k.windows = false,
             "bvh" => k.bvh = false,
+            "whole-light" => k.whole_light = false,
             "all" => k = Skip::NONE,
             other => {
                 return Err(format!(
-                    "unknown skip '{other}' (shadow-occluders, view-culling, specialize, horizon, unreachable-lights, closed, slabs, windows, bvh, all)"
+                    "unknown skip '{other}' (shadow-occluders, view-culling, specialize, horizon, unreachable-lights, closed, slabs, windows, bvh, whole-light, all)"
                 ));
             }
         }

@@ -277,6 +277,9 @@ impl<'a> Ctx<'_, 'a> {
             // bit for bit the pdf from the point and normal: the same
             // one_minus_cos_max of the same operands, or the same window
             return match &self.plan.one {
+                // the closed form took all of this light's direct light:
+                // an infinite pdf, so the power heuristic gives the hit 0
+                Some(one) if one.sphere == i && prev.light_omc == f32::INFINITY => f32::INFINITY,
                 Some(one) if one.sphere == i && prev.light_omc > 0.0 => {
                     1.0 / (math::TWO_PI * prev.light_omc)
                 }

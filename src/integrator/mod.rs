@@ -108,6 +108,11 @@ pub struct Skip {
     /// A light that an opaque wall cuts is sampled through its window
     /// ([`crate::light::Window`]), not over the part the wall hides.
     pub windows: bool,
+    /// Where a Lambertian point sees the one light whole (all of it above
+    /// the point's horizon, no occluder near the way to it), its direct
+    /// light is the closed form: no light sample and no shadow ray (the
+    /// same expectation, and no noise from that light there).
+    pub whole_light: bool,
 }
 
 impl Skip {
@@ -122,6 +127,7 @@ impl Skip {
         slabs: true,
         bvh: true,
         windows: true,
+        whole_light: true,
     };
     /// No skip: the integrator does all the work a general scene needs.
     pub const NONE: Self = Self {
@@ -134,6 +140,7 @@ impl Skip {
         slabs: false,
         bvh: false,
         windows: false,
+        whole_light: false,
     };
 }
 

@@ -5,7 +5,7 @@
 
 use super::choice::GlossyChoice;
 use super::choice::LightChoice;
-use super::nee::{direct, direct_window, nee, nee_window};
+use super::nee::{direct, direct_window, nee, nee_window, whole_light};
 use super::plan::{Ctx, PrevVertex, window_of};
 #[cfg(feature = "glass")]
 use super::split::{Branch, split_at_glass};
@@ -160,14 +160,26 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                     let horizon = ctx.horizon_at(hit.object);
                     if opts.strategy != Strategy::BsdfOnly && !ctx.plan.lights.is_empty() {
                         // drawn before the light is chosen, so that skipping a
-                        // light below the horizon never shifts the random numbers
-                        let u = if last == EYE {
-                            stream.stratified_2d(2)
+                        // light below the horizon never shifts the random
+                        // numbers; with the closed form in use (one light),
+                        // only where the light is sampled
+                        macro_rules! light_u {
+                            () => {
+                                if last == EYE {
+                                    stream.stratified_2d(2)
+                                } else {
+                                    stream.next_2d()
+                                }
+                            };
+                        }
+                        let early = if ctx.plan.one.is_some_and(|o| o.whole) {
+                            None
                         } else {
-                            stream.next_2d()
+                            Some(light_u!())
                         };
                         let f = thr * lobe.tint();
                         if MANY {
+                            let u = early.unwrap_or([0.0; 2]);
                             let alpha = lobe.selective_alpha();
                             let (choice, sum) = if cfg!(feature = "metal") && alpha > 0.0 {
                                 let (c, sum) = ctx.choose_light_glossy(
@@ -223,9 +235,25 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                             weight_sum = 1.0;
                             let to_c = one.center - hit.point;
                             let d2 = to_c.length_squared();
-                            if math::gt(d2, one.radius2)
-                                && !(horizon && math::lt(n.dot(to_c), -one.radius))
+                            let whole = |d2| {
+                                if one.whole && lobe.cosine_weight().is_some() {
+                                    whole_light(scene, &hit, n, to_c, d2, one.radius, one.radius2)
+                                } else {
+                                    None
+                                }
+                            };
+                            if !(math::gt(d2, one.radius2)
+                                && !(horizon && math::lt(n.dot(to_c), -one.radius)))
                             {
+                                // not sampled here
+                            } else if let Some(k) = whole(d2) {
+                                light_omc = f32::INFINITY;
+                                l += f * one.le * k;
+                            } else {
+                                let u = match early {
+                                    Some(u) => u,
+                                    None => light_u!(),
+                                };
                                 let c = LightChoice {
                                     sphere: one.sphere,
                                     p_sel: 1.0,

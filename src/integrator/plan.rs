@@ -21,7 +21,10 @@ pub(super) struct PrevVertex {
     pub(super) weight_sum: f32,
     /// With one light: its 1 − cos θ_max seen from that vertex, as
     /// next-event estimation computed it (0: it could not be sampled there),
-    /// negated where next-event estimation sampled the light's window.
+    /// negated where next-event estimation sampled the light's window,
+    /// +∞ where the closed form gave its direct light
+    /// ([`super::nee::whole_light`]: a BSDF sample that hits it there adds
+    /// nothing).
     pub(super) light_omc: f32,
     /// Whether the horizon test was done there.
     pub(super) horizon: bool,
@@ -81,7 +84,19 @@ impl<'a> PathPlan<'a> {
             one: if many || lights.len() != 1 {
                 None
             } else {
-                OneLight::first(scene, lights, windows)
+                OneLight::first(scene, lights, windows).map(|mut one| {
+                    // the closed form's occluders are the shadow rays' lists
+                    // (spheres only, no tree); a light cut by a wall keeps
+                    // its window
+                    one.whole = skip.whole_light
+                        && skip.shadow_occluders
+                        && skip.unreachable_lights
+                        && scene.shadow_planes.is_empty()
+                        && !scene.shadow_lights
+                        && scene.bvh.is_none()
+                        && one.window.is_none();
+                    one
+                })
             },
             windows,
             deep: if opts.deep_start < opts.max_depth {
@@ -112,6 +127,11 @@ pub(super) struct OneLight<'a> {
     pub(super) radius2: f32,
     pub(super) le: Color,
     pub(super) window: Option<&'a Window>,
+    /// Whether the closed form of [`super::nee::whole_light`] may replace
+    /// the light sample ([`super::Skip::whole_light`]): the shadow rays'
+    /// occluders are the spheres of [`SceneView::tested_shadow`] alone, and
+    /// none of them emits.
+    pub(super) whole: bool,
 }
 
 impl<'a> OneLight<'a> {
@@ -132,6 +152,7 @@ impl<'a> OneLight<'a> {
             radius2: s.radius2,
             le,
             window: window_of(windows, i),
+            whole: false,
         })
     }
 }
