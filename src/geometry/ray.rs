@@ -59,6 +59,16 @@ impl ObjectId {
         }
     }
 
+    /// The index bits without the plane bit: the plane index of a plane,
+    /// and `0x7fff` for [`ObjectId::NONE`], beyond every plane index a
+    /// scene can have (`get` of it on a plane array is `None`). For an id
+    /// known to be a plane or none: a lookup without [`ObjectId::as_plane`]'s
+    /// test.
+    #[inline(always)]
+    pub(crate) const fn plane_slot(self) -> usize {
+        (self.0 & !Self::PLANE_BIT) as usize
+    }
+
     /// The plane index, if this is a plane.
     #[inline(always)]
     pub const fn as_plane(self) -> Option<usize> {

@@ -41,10 +41,9 @@ pub(crate) struct PathPlan<'a> {
     /// or the `specialize` skip off).
     pub(super) many: bool,
     /// Zero weight for lights entirely below the horizon of a point of a
-    /// plane (the skip is on and the scene analysis found it can happen).
-    pub(super) horizon_planes: bool,
-    /// The same for points of spheres.
-    pub(super) horizon_spheres: bool,
+    /// sphere (bit 0) or of a plane (bit 1): the skip is on and the scene
+    /// analysis found it can happen there.
+    pub(super) horizon: u16,
     /// The only light, looked up once (scenes with one light).
     pub(super) one: Option<OneLight<'a>>,
     /// Windows of lights cut by a wall (empty with that skip off).
@@ -79,8 +78,8 @@ impl<'a> PathPlan<'a> {
         Self {
             lights,
             many,
-            horizon_planes: skip.horizon && scene.horizon_planes,
-            horizon_spheres: skip.horizon && scene.horizon_spheres,
+            horizon: u16::from(skip.horizon && scene.horizon_spheres)
+                | u16::from(skip.horizon && scene.horizon_planes) << 1,
             one: if many || lights.len() != 1 {
                 None
             } else {
@@ -191,11 +190,8 @@ impl<'a> Ctx<'_, 'a> {
     /// Whether the horizon test is worth doing on `object`.
     #[inline(always)]
     pub(super) fn horizon_at(&self, object: ObjectId) -> bool {
-        if object.as_sphere().is_some() {
-            self.plan.horizon_spheres
-        } else {
-            self.plan.horizon_planes
-        }
+        // one bit per kind of surface: no branch on the id
+        (self.plan.horizon >> (object.0 >> 15)) & 1 != 0
     }
 
     /// Whether light sphere `i` can be sampled from `x` with normal `n`:

@@ -139,10 +139,11 @@ fn nearest<'p>(
     };
     if let Some(l) = hit_sphere {
         Some(l.sphere.hit(ray, t_max, l.id))
-    } else if let Some(i) = best.as_plane() {
-        all_planes.get(i).map(|p| p.hit(ray, t_best, best))
     } else {
-        None
+        // `best` is a plane or none
+        all_planes
+            .get(best.plane_slot())
+            .map(|p| p.hit(ray, t_best, best))
     }
 }
 
