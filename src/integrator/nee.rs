@@ -220,8 +220,8 @@ pub(super) fn mis_weight(a: f32, opts: &Options) -> f32 {
     }
 }
 
-/// The factor by which [`whole_light`] grows the sum of an occluder's and
-/// the light's radii.
+/// The factor by which [`whole_light`] grows the radii of the light and
+/// of each occluder.
 const GROW: f32 = 1.0 + 1.0 / 256.0;
 
 /// The direct light of the one light at a Lambertian point in closed form,
@@ -239,17 +239,17 @@ const GROW: f32 = 1.0 + 1.0 / 256.0;
 ///   every direction toward it leaves the surface by at least 2⁻¹⁰ in
 ///   cosine, so the sphere the point lies on (if it faces outward) cannot
 ///   block it, being convex;
-/// * every other sphere of the shadow rays' occluder list lies farther
-///   than `(ρ + r)(1 + 2⁻⁸) + 4e` from the line through `x` and the
-///   light's centre `c` (`ρ` its radius, `e` the hit point's error bound,
-///   which the shadow ray's origin offset stays within), with `3·2⁻¹⁶ d²`
-///   more in the squares and the squared distance taken 2⁻¹⁵ short, for
-///   the rounding of the distance. Every shadow ray toward the light
-///   stays within `r` of the segment from `x` to `c` (it lies in the
-///   convex hull of `x` and the light's sphere), so it misses such a
-///   sphere by a wide margin. (The line, not the segment: no clamp, and
-///   only a sphere beyond the light or behind the point is refused for
-///   nothing.)
+/// * every other sphere of the shadow rays' occluder list keeps out of
+///   the cone from `x` around the light (half-angle `α'` with
+///   `sin α' = r (1 + 2⁻⁸) / d`), by more than its radius grown by 2⁻⁸
+///   plus `4e` (`e` the hit point's error bound: the shadow ray's origin
+///   offset stays within it): with `h` and `p` the centre's distances
+///   across and along the axis, `h cos α' − p sin α' > ρ (1 + 2⁻⁸) + 4e`
+///   (the distance from a point to the cone's surface, or less), compared
+///   in squares with `2⁻¹⁸ |s − x|²` more for the rounding. Every shadow
+///   ray toward the light lies in that cone, so it misses such a sphere
+///   by a wide margin. (The cone is not cut at the light: a sphere beyond
+///   the light is refused for nothing.)
 ///
 /// `to_c` is `c − x` and `d2` its squared length (above `r2`). The list
 /// holds no emitter ([`SceneView::shadow_lights`] is false: the caller has
@@ -269,51 +269,66 @@ pub(super) fn whole_light(
     if !math::gt(ndc, r + d * (1.0 / 1024.0)) {
         return None;
     }
-    // (ρ + r)·GROW + 4e = ρ·GROW + base; the squared line distance is
-    // |v × (c − x)|² / d², compared multiplied through by d²
-    let base = r * GROW + 4.0 * hit.error;
-    let k = d2 * (3.0 / 65_536.0);
+    let inv_d = 1.0 / d;
+    let sin = r * GROW * inv_d;
+    // at most 0 within the grown light: then no occluder passes the test
+    let cos2 = 1.0 - sin * sin;
+    let cone = Cone {
+        axis: to_c * inv_d,
+        sin,
+        cos2,
+        grow: 4.0 * hit.error,
+    };
     let clear = match hit.object.as_sphere() {
         // the point's own sphere is behind every direction toward the
         // light if the shading normal is the outward one
-        Some(_) if math::gt_zero(n.dot(hit.normal)) => {
-            lines_clear::<true>(scene.tested_shadow, hit, to_c, d2, base, k)
-        }
+        Some(_) if math::gt_zero(n.dot(hit.normal)) => cone.clear::<true>(scene.tested_shadow, hit),
         Some(_) => false,
-        None => lines_clear::<false>(scene.tested_shadow, hit, to_c, d2, base, k),
+        None => cone.clear::<false>(scene.tested_shadow, hit),
     };
     if !clear {
         return None;
     }
-    Some(r2 * ndc / (d2 * d))
+    Some(r2 * ndc * (inv_d * inv_d * inv_d))
 }
 
-/// The occluder test of [`whole_light`]: every sphere of `list` (but the
-/// hit's own, if `SKIP_OWN`) lies farther than `ρ · GROW + base` from the
-/// line through the hit point along `to_c`, in squares with `k` more.
-#[inline(always)]
-fn lines_clear<const SKIP_OWN: bool>(
-    list: &[crate::analysis::Listed],
-    hit: &Hit,
-    to_c: Vec3,
-    d2: f32,
-    base: f32,
-    k: f32,
-) -> bool {
-    for l in list {
-        if SKIP_OWN && l.id == hit.object {
-            continue;
+/// The cone of [`whole_light`]: unit axis, `sin α'`, `cos² α'`, and what
+/// an occluder's grown radius gains besides (`4e`).
+struct Cone {
+    axis: Vec3,
+    sin: f32,
+    cos2: f32,
+    grow: f32,
+}
+
+impl Cone {
+    /// Whether every sphere of `list` (but the hit's own, if `SKIP_OWN`)
+    /// keeps out of the cone from the hit point by the margins of
+    /// [`whole_light`]: `h² cos²α' > R² + 2⁻¹⁸ |v|²` with `R = ρ·GROW +
+    /// grow + p sin α'`, `v` from the point to the centre, `p = v · axis`
+    /// and `h² = |v|² − p²`. (That difference cancels where the centre is
+    /// near the axis, by at most `6ε |v|²`, well inside the `2⁻¹⁸ |v|²`;
+    /// and where `R < 0`, which the cone's distance would pass outright,
+    /// the squares only refuse some spheres behind the point for nothing.)
+    #[inline(always)]
+    fn clear<const SKIP_OWN: bool>(&self, list: &[crate::analysis::Listed], hit: &Hit) -> bool {
+        for l in list {
+            if SKIP_OWN && l.id == hit.object {
+                continue;
+            }
+            let v = l.sphere.center - hit.point;
+            let vv = v.dot(v);
+            let p = v.dot(self.axis);
+            let reach = l.sphere.radius * GROW + self.grow + p * self.sin;
+            if !math::gt(
+                (vv - p * p) * self.cos2,
+                reach * reach + vv * (1.0 / 262_144.0),
+            ) {
+                return false;
+            }
         }
-        // |v × (c − x)|² / d² is the squared distance of the centre from
-        // the line: compared multiplied through by d²
-        let v = l.sphere.center - hit.point;
-        let m = v.cross(to_c);
-        let reach = l.sphere.radius * GROW + base;
-        if !math::gt(m.dot(m) * (1.0 - 1.0 / 32_768.0), (reach * reach + k) * d2) {
-            return false;
-        }
+        true
     }
-    true
 }
 
 #[cfg(all(test, feature = "parser"))]
@@ -333,14 +348,21 @@ mod tests {
         lo + (hi - lo) * unit(rng)
     }
 
-    /// A floor, a light above it and three spheres between, at random.
+    /// A floor, a light above it (near, or a far sun) and three spheres
+    /// between, at random.
     fn random_scene(rng: &mut XorShiftRng) -> (Scene<8, 2, 4>, Vec3, f32) {
-        let c = Vec3::new(
+        let mut c = Vec3::new(
             range(rng, -1.0, 1.0),
             range(rng, 1.5, 3.0),
             range(rng, -1.0, 1.0),
         );
-        let r = range(rng, 0.02, 0.5);
+        let mut r = range(rng, 0.02, 0.5);
+        if unit(rng) < 0.25 {
+            // a sun: far, and large
+            let far = range(rng, 20.0, 500.0);
+            c = Vec3::new(c.x * far, far, c.z * far);
+            r = far * range(rng, 0.01, 0.1);
+        }
         let mut text: heapless::String<1024> = heapless::String::new();
         writeln!(text, "camera 0 1 5  0 1 0  0 1 0  60").unwrap();
         writeln!(text, "material w diffuse 0.5 0.5 0.5").unwrap();

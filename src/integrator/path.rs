@@ -248,7 +248,7 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                                 // not sampled here
                             } else if let Some(k) = whole(d2) {
                                 light_omc = f32::INFINITY;
-                                l += f * one.le * k;
+                                l += thr * (lobe.tint() * (one.le * k));
                             } else {
                                 let u = match early {
                                     Some(u) => u,
