@@ -30,7 +30,7 @@ DOC=docs/skip-board.md
 mkdir -p "$OUT"
 gcc -O2 -Wall -Wextra -Werror -shared -fPIC -o "$OUT/libicount.so" tools/qemu-icount/icount.c
 
-CONFIGS=(default shadow_occluders view_culling specialize horizon unreachable_lights closed slabs none)
+CONFIGS=(default shadow_occluders view_culling specialize horizon unreachable_lights closed slabs whole_light none)
 SCENES=(cornell furnace smallpt sphere-over-plane spheres)
 
 # run SCENE CONFIG: build and run; prints "paths render_insns"

@@ -19,7 +19,7 @@ BIN = sys.argv[1] if len(sys.argv) > 1 else "target/release/micropt"
 TARGET_S = float(sys.argv[2]) if len(sys.argv) > 2 else 0.5
 REPS = int(sys.argv[3]) if len(sys.argv) > 3 else 5
 CONFIGS = ["default", "shadow-occluders", "view-culling", "specialize", "horizon",
-           "unreachable-lights", "closed", "slabs", "all"]
+           "unreachable-lights", "closed", "slabs", "whole-light", "all"]
 
 
 def run(scene, config, out, spp):

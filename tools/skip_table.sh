@@ -8,7 +8,7 @@ set -euo pipefail
 bin=${1:-target/release/micropt}
 spp=${2:-4}
 size=${3:-48x36}
-configs=(default shadow-occluders view-culling specialize horizon unreachable-lights closed slabs all)
+configs=(default shadow-occluders view-culling specialize horizon unreachable-lights closed slabs whole-light all)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 count() { # scene config -> "instructions paths"
