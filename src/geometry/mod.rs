@@ -9,4 +9,5 @@ mod vec3;
 pub use plane::Plane;
 pub use ray::{Hit, ObjectId, Ray};
 pub use sphere::Sphere;
+pub(crate) use sphere::{line_misses, line_misses_by_far};
 pub use vec3::{Color, Vec3};

@@ -304,7 +304,7 @@ impl Sphere {
 /// |d|²` (`f = o − centre`). `c ≤ 0` (inside) never rejects: `b² − c |d|²
 /// ≥ 0`.
 #[inline(always)]
-fn line_misses(b: f32, c: f32, ff: f32, dd: f32) -> bool {
+pub(crate) fn line_misses(b: f32, c: f32, ff: f32, dd: f32) -> bool {
     b * b - c * dd < -ff * (1.0 / 262_144.0)
 }
 

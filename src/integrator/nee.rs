@@ -5,7 +5,7 @@
 
 use super::choice::LightChoice;
 use super::{Options, Strategy};
-use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3};
+use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3, line_misses, line_misses_by_far};
 use crate::light::{self, Window};
 use crate::material::{Lobe, Material};
 use crate::math;
@@ -249,7 +249,13 @@ const GROW: f32 = 1.0 + 1.0 / 256.0;
 ///   in squares with `2⁻¹⁸ |s − x|²` more for the rounding. Every shadow
 ///   ray toward the light lies in that cone, so it misses such a sphere
 ///   by a wide margin. (The cone is not cut at the light: a sphere beyond
-///   the light is refused for nothing.)
+///   the light is refused for nothing.) Where the cone refuses a sphere,
+///   it still passes if its centre lies farther than `(ρ + r)(1 + 2⁻⁸) +
+///   4e` from the line through the light's centre (every shadow ray stays
+///   within `r` of it): the sphere test's own line test, which targets
+///   without an FPU try first in integer arithmetic (`line_misses_by_far`,
+///   which answers only where the float test says the same), so that every
+///   target makes the same decision.
 ///
 /// `to_c` is `c − x` and `d2` its squared length (above `r2`). The list
 /// holds no emitter ([`SceneView::shadow_lights`] is false: the caller has
@@ -278,6 +284,7 @@ pub(super) fn whole_light(
         sin,
         cos2,
         grow: 4.0 * hit.error,
+        hull: r * GROW + 4.0 * hit.error,
     };
     let clear = match hit.object.as_sphere() {
         // the point's own sphere is behind every direction toward the
@@ -299,12 +306,16 @@ struct Cone {
     sin: f32,
     cos2: f32,
     grow: f32,
+    /// `r·GROW + grow`: what the line test adds to an occluder's grown
+    /// radius.
+    hull: f32,
 }
 
 impl Cone {
     /// Whether every sphere of `list` (but the hit's own, if `SKIP_OWN`)
     /// keeps out of the cone from the hit point by the margins of
-    /// [`whole_light`]: `h² cos²α' > R² + 2⁻¹⁸ |v|²` with `R = ρ·GROW +
+    /// [`whole_light`], or else away from the line through the light's
+    /// centre: `h² cos²α' > R² + 2⁻¹⁸ |v|²` with `R = ρ·GROW +
     /// grow + p sin α'`, `v` from the point to the centre, `p = v · axis`
     /// and `h² = |v|² − p²`. (That difference cancels where the centre is
     /// near the axis, by at most `6ε |v|²`, well inside the `2⁻¹⁸ |v|²`;
@@ -316,14 +327,32 @@ impl Cone {
             if SKIP_OWN && l.id == hit.object {
                 continue;
             }
+            // first the line through the light's centre: a centre farther
+            // than `ρ·GROW + r·GROW + grow` from it keeps every shadow ray
+            // (which stays within `r` of that line) at a distance. The
+            // sphere test's line test (`line_misses`, on `f = x − s`:
+            // `b = −f·axis = p`, `|f|² = |v|²`); without an FPU, where each
+            // float operation is a call, first its integer version, which
+            // answers only where the float test would say the same
+            let line2 = || {
+                let line = l.sphere.radius * GROW + self.hull;
+                line * line
+            };
+            if math::SOFT_FLOAT
+                && line_misses_by_far(hit.point, l.sphere.center, self.axis, line2())
+            {
+                continue;
+            }
             let v = l.sphere.center - hit.point;
             let vv = v.dot(v);
             let p = v.dot(self.axis);
+            // then the cone, and the line in float where the cone refuses
             let reach = l.sphere.radius * GROW + self.grow + p * self.sin;
             if !math::gt(
                 (vv - p * p) * self.cos2,
                 reach * reach + vv * (1.0 / 262_144.0),
-            ) {
+            ) && !line_misses(p, vv - line2(), vv, self.axis.dot(self.axis))
+            {
                 return false;
             }
         }
