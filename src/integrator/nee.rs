@@ -506,19 +506,23 @@ mod tests {
             let Some(f) = whole_light(&view, &hit, n, to_c, d2, r, r * r) else {
                 continue;
             };
-            let (mut sum, m) = (0.0f64, 128);
+            // compensated (Kahan) summation of the 128² cosines
+            let (mut sum, mut carry, m) = (0.0f32, 0.0f32, 128u32);
             for i in 0..m {
                 for j in 0..m {
                     let u1 = (i as f32 + 0.5) / m as f32;
                     let u2 = (j as f32 + 0.5) / m as f32;
                     let ls = sample_cone_toward(to_c, d2, r * r, u1, u2, false, true);
-                    sum += f64::from(n.dot(ls.dir));
+                    let y = n.dot(ls.dir) - carry;
+                    let t = sum + y;
+                    carry = (t - sum) - y;
+                    sum = t;
                 }
             }
-            let omega =
-                2.0 * core::f64::consts::PI * f64::from(crate::light::one_minus_cos_max(r * r, d2));
-            let integral = omega / core::f64::consts::PI * sum / f64::from(m * m);
-            let rel = (f64::from(f) / integral - 1.0).abs();
+            // Ω/π = 2 (1 − cos θmax)
+            let omc = crate::light::one_minus_cos_max(r * r, d2);
+            let integral = 2.0 * omc * sum / (m * m) as f32;
+            let rel = math::abs(f / integral - 1.0);
             assert!(rel < 1e-4, "{c:?} r {r}: {f} against {integral}");
             checked += 1;
         }
