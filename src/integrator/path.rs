@@ -179,6 +179,8 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
                         };
                         let f = thr * lobe.tint();
                         if MANY {
+                            // several lights have no one-light plan, so the
+                            // numbers were drawn above (`early` is `Some`)
                             let u = early.unwrap_or([0.0; 2]);
                             let alpha = lobe.selective_alpha();
                             let (choice, sum) = if cfg!(feature = "metal") && alpha > 0.0 {
