@@ -171,11 +171,20 @@ impl Sphere {
     /// result, in double-f32 arithmetic: the difference, the squares and
     /// the sum are split into exact high and low parts
     /// ([`math::two_sum`], [`math::two_square`]).
-    #[inline(never)]
+    #[inline(always)]
     pub(crate) fn origin_power(&self, o: Vec3) -> f32 {
-        let (fx, ex) = math::two_sum(o.x, -self.center.x);
-        let (fy, ey) = math::two_sum(o.y, -self.center.y);
-        let (fz, ez) = math::two_sum(o.z, -self.center.z);
+        self.power_at(o.x, o.y, o.z)
+    }
+
+    /// [`Sphere::origin_power`] of the point `(x, y, z)`. Out of line, and
+    /// its point in registers: a `Vec3` argument would be passed by
+    /// reference, and whatever holds the point (a path's state) would have
+    /// to live in memory.
+    #[inline(never)]
+    fn power_at(&self, x: f32, y: f32, z: f32) -> f32 {
+        let (fx, ex) = math::two_sum(x, -self.center.x);
+        let (fy, ey) = math::two_sum(y, -self.center.y);
+        let (fz, ez) = math::two_sum(z, -self.center.z);
         let (px, qx) = math::two_square(fx);
         let (py, qy) = math::two_square(fy);
         let (pz, qz) = math::two_square(fz);
