@@ -1,25 +1,55 @@
-//! The path loop: camera ray, closest hits, the material's scatter, a
-//! non-delta vertex's next-event estimation and BSDF sample, emitters hit
-//! weighted by multiple importance sampling, Russian roulette, and the
-//! branches of a path split at glass.
+//! The path loop: one path from the camera, vertex by vertex, as a short
+//! loop over [`PathState`] whose steps each compute one term of the
+//! estimator:
+//!
+//! 1. [`PathState::closest_hit`]: the next vertex, or
+//!    [`PathState::escape`], the background radiance `L_e` of a ray that
+//!    leaves the scene;
+//! 2. the material's scatter at the vertex, one of
+//!    - [`PathState::emission`]: `L_e` of an emitter the path hits,
+//!      weighted by multiple importance sampling against next-event
+//!      estimation at the vertex before;
+//!    - [`PathState::non_delta`]: a Lambertian, checker or rough-metal
+//!      vertex: [`PathState::direct_light`] (next-event estimation of
+//!      `∫ L_e f_r cos θ dω` over the lights) and [`PathState::bsdf_sample`]
+//!      (the direction that continues the path, so the rest of
+//!      `∫ L_i f_r cos θ dω`);
+//!    - [`PathState::delta`]: a mirror or glass vertex, its one direction
+//!      (or both, where a path splits at its first glass vertex);
+//! 3. [`PathState::roulette`] and [`PathState::advance`]: Russian roulette
+//!    on the throughput and, deep in a path, on the depth;
+//! 4. [`PathState::resume_split`]: the other branch of a split path.
+//!
+//! Every step is `#[inline(always)]` (but [`PathState::direct_many`] on
+//! cores without an FPU, where inlining it cost 10 KB of flash): the loop
+//! is one function per variant of the tracer (several lights or one, tree
+//! or lists), and the compiler keeps [`PathState`] in registers. That holds
+//! only while no out-of-line call takes the address of one of its fields:
+//! a call given `&self.ray` put the whole state in memory, zeroed on every
+//! path (cornell on a Cortex-M4F: 2,692 instructions a path instead of
+//! 2,488). So the out-of-line query gets a copy of the ray, and
+//! `Sphere::origin_power` its point in registers.
 
-use super::choice::GlossyChoice;
-use super::choice::LightChoice;
+use super::choice::{GlossyChoice, LightChoice};
 use super::nee::{direct, direct_window, nee, nee_window, whole_light};
-use super::plan::{Ctx, PrevVertex, window_of};
+use super::plan::{Ctx, OneLight, PrevVertex, window_of};
 #[cfg(feature = "glass")]
 use super::split::{Branch, split_at_glass};
 use super::{Options, Strategy, power_heuristic};
+use crate::analysis::Listed;
 use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3};
 use crate::material::diffuse::sample_cosine;
-use crate::material::{Bsdf, Lambert, Lobe, Scatter};
+use crate::material::{Bsdf, DeltaSample, Lambert, Lobe, Material, Scatter};
 use crate::math;
 use crate::sampler::SampleStream;
+use crate::scene::SceneView;
 use crate::stats::Stats;
 
 /// The path tracer, compiled for scenes with several lights (`MANY`) or
 /// with one, and for rays that find their spheres through the scene's tree
-/// (`TREE`) or its lists.
+/// (`TREE`) or its lists: the radiance arriving along the camera ray `ray`,
+/// estimated by one path (and, where it splits at glass, its second
+/// branch).
 #[inline(always)]
 pub(super) fn trace<const MANY: bool, const TREE: bool>(
     ctx: &Ctx<'_, '_>,
@@ -28,429 +58,693 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
     opts: &Options,
     stats: &mut Stats,
 ) -> Color {
-    let scene = ctx.scene;
-    let mut l = Color::ZERO;
-    let mut thr = Color::ONE;
-    let mut ray = ray;
-    let mut from = ObjectId::NONE;
-    // what the last vertex was, in one register: emitters get full weight
-    // after the camera (the eye is a delta) and after mirror or glass
-    // (`DELTA` and up); the first non-delta vertex, wherever mirrors and
-    // glass put it, draws its numbers from the pixel's stratified pairs
-    // (`EYE`, kept through deltas; a render without stratification starts
-    // at `DELTA`)
-    const NON_DELTA: u8 = 0;
-    const DELTA: u8 = 1;
-    const EYE: u8 = 2;
-    let mut last = if opts.stratified { EYE } else { DELTA };
-    // undoes the (eta_i/eta_t)^2 radiance scaling for Russian roulette, so
-    // that paths inside glass are not killed for a factor that cancels on
-    // exit (and a split's weight, R or 1 − R, so that each branch is
-    // killed as the path that chose it would be)
-    let mut rr_scale = 1.0f32;
-    // The last non-delta vertex, read only after one has set it. With metal
-    // an Option, empty until then: zeroing the larger record at every
-    // path's start cost a call to memclr per path on a Cortex-M4 (59
-    // instructions of furnace.scene's 1,002, tools/profile.sh). Without
-    // metal the record as it always was: there an Option cost 172 bytes of
-    // a 64 KiB firmware's flash.
-    #[cfg(feature = "metal")]
-    let mut prev: Option<PrevVertex> = None;
-    #[cfg(not(feature = "metal"))]
-    let mut prev = PrevVertex {
-        point: Vec3::ZERO,
-        normal: Vec3::ZERO,
-        bsdf_pdf: 0.0,
-        weight_sum: 0.0,
-        light_omc: 0.0,
-        horizon: false,
-    };
-    let mut glossy = GlossyChoice {
-        alpha: 0.0,
-        wo: Vec3::ZERO,
-        share_sum: 0.0,
-    };
-    // counted here and added to `stats` once per path (u64 additions are
-    // four instructions each on a 32-bit core)
-    let (mut bounces, mut shadows) = (0u32, 0u32);
-    let mut depth = 0u32;
-    // whether the path may no longer split at a glass vertex: it has split,
-    // or met a non-delta vertex
-    #[cfg(feature = "glass")]
-    let mut no_split = false;
-    // the other branch of a path split at its first glass vertex (see
-    // `split_at_glass`), traced after this one ends
-    #[cfg(feature = "glass")]
-    let mut pending: Option<Branch> = None;
-    // one inlined query for every ray, with the camera ray's sphere list
-    // when culling (a camera ray leaves no object), the bounce rays' list
-    // from the first bounce on (a split path's other branch starts later)
-    let mut spheres = if opts.skip.view_culling {
-        scene.tested_primary
-    } else {
-        scene.tested
-    };
-    // one pass per branch: without glass, exactly one
-    #[cfg_attr(not(feature = "glass"), allow(clippy::never_loop))]
+    let mut path = PathState::new(ctx.scene, ray, opts);
     loop {
-        loop {
-            let found = if opts.skip.slabs {
-                scene.closest_hit_in::<TREE>(&ray, from, spheres)
-            } else {
-                // the out-of-line query's record comes back through memory:
-                // rebuilt field by field, so that the inlined query's
-                // record need not live there too
-                scene
-                    .closest_hit_any_among(&ray, from, spheres)
-                    .map(|h| Hit {
-                        t: h.t,
-                        point: h.point,
-                        normal: h.normal,
-                        error: h.error,
-                        object: h.object,
-                        material: h.material,
-                    })
-            };
-            let Some(hit) = found else {
-                if scene.closed && opts.skip.closed {
-                    // nothing can escape a closed scene: a numerical leak
-                    stats.leaks += 1;
-                } else {
-                    l += thr * scene.background;
-                }
-                break;
-            };
-            // Russian roulette on the throughput with which the path leaves
-            // this vertex (its `depth + 1`-th bounce): ends the path, or
-            // weights the survivor. Each scattering arm asks it last, but a
-            // cosine-sampled vertex before its direction, which a path that
-            // roulette ends never needs (the same numbers in the same order:
-            // the direction's are drawn before roulette's)
-            macro_rules! roulette {
-                () => {
-                    if depth + 1 >= opts.rr_start {
-                        let p = thr.max_component() * rr_scale * opts.rr_gain;
-                        if math::lt(p, 1.0) {
-                            if !math::lt(stream.next_f32(), p) {
-                                break;
-                            }
-                            thr *= 1.0 / p;
-                        }
-                    }
-                };
-            }
-            // a non-delta vertex, compiled once per lobe type (static
-            // dispatch): next-event estimation and BSDF sampling by MIS
-            macro_rules! non_delta {
-                ($lobe:expr) => {{
-                    let lobe = $lobe;
-                    #[cfg(feature = "glass")]
-                    {
-                        no_split = true;
-                    }
-                    // two-sided: shade with the normal facing the incoming ray
-                    let n = if math::lt_zero(ray.dir.dot(hit.normal)) {
-                        hit.normal
-                    } else {
-                        -hit.normal
-                    };
-                    let wo = -ray.dir;
-                    let mut weight_sum = 0.0;
-                    let mut light_omc = 0.0;
-                    let horizon = ctx.horizon_at(hit.object);
-                    if opts.strategy != Strategy::BsdfOnly && !ctx.plan.lights.is_empty() {
-                        // drawn before the light is chosen, so that skipping a
-                        // light below the horizon never shifts the random
-                        // numbers; with the closed form in use (one light),
-                        // only where the light is sampled
-                        macro_rules! light_u {
-                            () => {
-                                if last == EYE {
-                                    stream.stratified_2d(2)
-                                } else {
-                                    stream.next_2d()
-                                }
-                            };
-                        }
-                        let early = if ctx.plan.one.is_some_and(|o| o.whole) {
-                            None
-                        } else {
-                            Some(light_u!())
-                        };
-                        let f = thr * lobe.tint();
-                        if MANY {
-                            // several lights have no one-light plan, so the
-                            // numbers were drawn above (`early` is `Some`)
-                            let u = early.unwrap_or([0.0; 2]);
-                            let alpha = lobe.selective_alpha();
-                            let (choice, sum) = if cfg!(feature = "metal") && alpha > 0.0 {
-                                let (c, sum) = ctx.choose_light_glossy(
-                                    hit.point,
-                                    n,
-                                    horizon,
-                                    last == EYE,
-                                    stream,
-                                    alpha,
-                                    wo,
-                                    &mut glossy,
-                                );
-                                // negative: the glossy choice's pdf applies
-                                (c, -sum)
-                            } else {
-                                ctx.choose_light(hit.point, n, horizon, last == EYE, stream)
-                            };
-                            weight_sum = sum;
-                            if let Some(c) = choice {
-                                let through = match window_of(ctx.windows(), c.sphere) {
-                                    Some(w) => direct_window::<TREE, _>(
-                                        scene,
-                                        &hit,
-                                        n,
-                                        f,
-                                        &lobe,
-                                        wo,
-                                        &c,
-                                        u,
-                                        opts,
-                                        &mut shadows,
-                                        w,
-                                    ),
-                                    None => None,
-                                };
-                                l += match through {
-                                    Some(e) => e,
-                                    None => direct::<TREE, _>(
-                                        scene,
-                                        &hit,
-                                        n,
-                                        f,
-                                        &lobe,
-                                        wo,
-                                        &c,
-                                        u,
-                                        opts,
-                                        &mut shadows,
-                                    ),
-                                };
-                            }
-                        } else if let Some(one) = &ctx.plan.one {
-                            weight_sum = 1.0;
-                            let to_c = one.center - hit.point;
-                            let d2 = to_c.length_squared();
-                            let whole = |d2| {
-                                if one.whole && lobe.cosine_weight().is_some() {
-                                    whole_light(scene, &hit, n, to_c, d2, one.radius, one.radius2)
-                                } else {
-                                    None
-                                }
-                            };
-                            if !(math::gt(d2, one.radius2)
-                                && !(horizon && math::lt(n.dot(to_c), -one.radius)))
-                            {
-                                // not sampled here
-                            } else if let Some(k) = whole(d2) {
-                                light_omc = f32::INFINITY;
-                                l += thr * (lobe.tint() * (one.le * k));
-                            } else {
-                                let u = match early {
-                                    Some(u) => u,
-                                    None => light_u!(),
-                                };
-                                let c = LightChoice {
-                                    sphere: one.sphere,
-                                    p_sel: 1.0,
-                                    to_c,
-                                    d2,
-                                };
-                                let through = match Ctx::window_of_one(one) {
-                                    Some(w) => nee_window::<MANY, TREE, _>(
-                                        scene,
-                                        &hit,
-                                        n,
-                                        f,
-                                        &lobe,
-                                        wo,
-                                        &c,
-                                        one.le,
-                                        u,
-                                        opts,
-                                        &mut shadows,
-                                        w,
-                                    ),
-                                    None => None,
-                                };
-                                if let Some(e) = through {
-                                    // negative: the window's pdf applies
-                                    light_omc = -1.0;
-                                    l += e;
-                                } else {
-                                    l += nee::<MANY, TREE, _>(
-                                        scene,
-                                        &hit,
-                                        n,
-                                        f,
-                                        &lobe,
-                                        wo,
-                                        &c,
-                                        one.radius2,
-                                        one.le,
-                                        u,
-                                        opts,
-                                        &mut shadows,
-                                        &mut light_omc,
-                                    );
-                                }
-                            }
-                        }
-                    }
-                    let u = if last == EYE {
-                        stream.stratified_2d(1)
-                    } else {
-                        stream.next_2d()
-                    };
-                    // f · cos / pdf (the Lambertian's: its albedo, exactly),
-                    // and the π-scaled pdf of the direction
-                    let (dir, pi_pdf) = if let Some(w) = lobe.cosine_weight() {
-                        thr *= w;
-                        roulette!();
-                        sample_cosine(n, u[0], u[1], opts.fast_math)
-                    } else {
-                        let Some(bs) = lobe.sample(wo, n, u, opts.fast_math) else {
-                            break;
-                        };
-                        thr *= bs.weight;
-                        roulette!();
-                        (bs.dir, bs.pi_pdf)
-                    };
-                    let vertex = PrevVertex {
-                        point: hit.point,
-                        normal: n,
-                        bsdf_pdf: pi_pdf * math::INV_PI,
-                        weight_sum,
-                        light_omc,
-                        horizon,
-                    };
-                    #[cfg(feature = "metal")]
-                    {
-                        prev = Some(vertex);
-                    }
-                    #[cfg(not(feature = "metal"))]
-                    {
-                        prev = vertex;
-                    }
-                    last = NON_DELTA;
-                    ray = hit.spawn_on(n, dir);
-                }};
-            }
-            let Some(mat) = scene.materials.get(hit.material as usize) else {
-                break;
-            };
-            match mat.scatter(&hit, ray.dir, stream) {
-                Scatter::Emit(le) => {
-                    // a light seen in a mirror straight from the camera
-                    // (`from`: the camera ray's object) whose image the
-                    // highlight estimator samples: left to it
-                    #[cfg(feature = "highlight")]
-                    if depth == 1
-                        && let Some(h) = ctx.highlights
-                        && h.covers(from, hit.object)
-                    {
-                        break;
-                    }
-                    // emits on the outward side only, reflects nothing
-                    if math::lt_zero(ray.dir.dot(hit.normal)) {
-                        let w = if last != NON_DELTA {
-                            1.0
-                        } else {
-                            match opts.strategy {
-                                Strategy::BsdfOnly => 1.0,
-                                Strategy::LightOnly => 0.0,
-                                Strategy::Mis => {
-                                    let weigh = |prev: &PrevVertex| {
-                                        let pl = hit.object.as_sphere().map_or(0.0, |i| {
-                                            ctx.light_pdf::<MANY>(prev, &glossy, i, ray.dir)
-                                        });
-                                        power_heuristic(prev.bsdf_pdf, pl)
-                                    };
-                                    match &prev {
-                                        #[cfg(feature = "metal")]
-                                        Some(prev) => weigh(prev),
-                                        // not reached: `last` is not NON_DELTA
-                                        // before the first non-delta vertex
-                                        #[cfg(feature = "metal")]
-                                        None => 1.0,
-                                        #[cfg(not(feature = "metal"))]
-                                        prev => weigh(prev),
-                                    }
-                                }
-                            }
-                        };
-                        l += thr * le * w;
-                    }
-                    break;
-                }
-                Scatter::Bsdf(Bsdf::Lambert(albedo)) => non_delta!(Lambert(albedo)),
-                #[cfg(feature = "metal")]
-                Scatter::Bsdf(Bsdf::Ggx(m)) => non_delta!(m),
-                Scatter::Delta(ds) => {
-                    // the first glass vertex seen from the camera (through
-                    // any mirrors and glass, before any diffuse or glossy
-                    // vertex) continues along both its reflection and its
-                    // refraction (the choice just drawn is not used); every
-                    // other glass vertex along the one chosen by the Fresnel
-                    // reflectance
-                    #[cfg(feature = "glass")]
-                    let ds = match split_at_glass(mat, &hit, &ray, !no_split) {
-                        Some((t, b)) => {
-                            no_split = true;
-                            pending = Some(Branch {
-                                thr: thr * b.thr,
-                                rr_scale: rr_scale * b.rr_scale,
-                                depth: depth + 1,
-                                ..b
-                            });
-                            t
-                        }
-                        None => ds,
-                    };
-                    thr *= ds.weight;
-                    rr_scale /= ds.scale;
-                    last = last.max(DELTA);
-                    ray = hit.spawn(ds.dir);
-                    roulette!();
-                }
-                Scatter::Absorb => break,
-            }
-            depth += 1;
-            spheres = scene.tested;
-            // one test per bounce for both the depth roulette and the cap
-            if depth >= ctx.plan.deep {
-                match deep_roulette(depth, opts, stream, stats) {
-                    Some(w) => thr *= w,
-                    None => break,
-                }
-            }
-            from = hit.object;
-            bounces += 1;
+        while path.vertex::<MANY, TREE>(ctx, stream, opts, stats) {}
+        if !path.resume_split() {
+            break;
         }
-        // the path's other branch, if it split at a glass vertex
-        #[cfg(feature = "glass")]
-        if let Some(b) = pending.take() {
-            ray = b.ray;
-            thr = b.thr;
-            rr_scale = b.rr_scale;
-            depth = b.depth;
-            from = b.from;
-            last = EYE;
-            bounces += 1;
-            continue;
-        }
-        break;
     }
-    stats.paths += 1;
-    stats.bounce_rays += u64::from(bounces);
-    stats.shadow_rays += u64::from(shadows);
-    l
+    path.finish(stats)
+}
+
+/// What the last vertex of a path was. Emitters get full weight after the
+/// camera (the eye is a delta) and after mirror or glass (`Delta` and up);
+/// the first non-delta vertex, wherever mirrors and glass put it, draws its
+/// numbers from the pixel's stratified pairs (`Eye`, kept through deltas;
+/// a render without stratification starts at `Delta`).
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Last {
+    /// A Lambertian, checker or rough-metal vertex.
+    NonDelta,
+    /// A mirror or glass vertex after a non-delta one (or the camera, in a
+    /// render without stratification).
+    Delta,
+    /// The camera, or mirrors and glass seen from it.
+    Eye,
+}
+
+/// The last non-delta vertex, read only after one has set it. With metal
+/// an `Option`, empty until then: zeroing the larger record at every
+/// path's start cost a call to memclr per path on a Cortex-M4. Without
+/// metal the record itself: there an `Option` cost 172 bytes of a 64 KiB
+/// firmware's flash.
+#[cfg(feature = "metal")]
+type Prev = Option<PrevVertex>;
+#[cfg(not(feature = "metal"))]
+type Prev = PrevVertex;
+
+/// A non-delta vertex as its steps see it.
+struct Vertex<'h> {
+    hit: &'h Hit,
+    /// The shading normal: the surface's, turned toward the incoming ray
+    /// (every surface is two-sided).
+    n: Vec3,
+    /// The direction back along the incoming ray.
+    wo: Vec3,
+    /// Whether lights entirely below the tangent plane are skipped here.
+    horizon: bool,
+}
+
+/// One path between its vertices.
+struct PathState<'a> {
+    /// The radiance gathered so far: the estimate of `L` along the camera
+    /// ray.
+    l: Color,
+    /// The throughput: the product of `f_r cos θ / pdf` (and of roulette's
+    /// weights) from the camera to `ray`'s origin.
+    thr: Color,
+    /// The ray to the next vertex.
+    ray: Ray,
+    /// The object `ray` leaves (none for a camera ray).
+    from: ObjectId,
+    /// The spheres `ray` tests: the camera ray's list when culling, the
+    /// bounce rays' list from the first bounce on.
+    spheres: &'a [Listed],
+    last: Last,
+    /// Undoes the `(η_i/η_t)²` radiance scaling for Russian roulette, so
+    /// that paths inside glass are not killed for a factor that cancels on
+    /// exit (and a split's weight, `R` or `1 − R`, so that each branch is
+    /// killed as the path that chose it would be).
+    rr_scale: f32,
+    prev: Prev,
+    /// What a glossy vertex's light choice keeps for the MIS weight of an
+    /// emitter its BSDF sample hits.
+    glossy: GlossyChoice,
+    depth: u32,
+    /// Counted here and added to [`Stats`] once per path (`u64` additions
+    /// are four instructions each on a 32-bit core).
+    bounces: u32,
+    shadows: u32,
+    /// Whether the path may no longer split at a glass vertex: it has
+    /// split, or met a non-delta vertex.
+    #[cfg(feature = "glass")]
+    no_split: bool,
+    /// The other branch of a path split at its first glass vertex (see
+    /// [`split_at_glass`]), traced after this one ends.
+    #[cfg(feature = "glass")]
+    pending: Option<Branch>,
+}
+
+impl<'a> PathState<'a> {
+    /// A path that starts along the camera ray `ray`.
+    #[inline(always)]
+    fn new(scene: &SceneView<'a>, ray: Ray, opts: &Options) -> Self {
+        Self {
+            l: Color::ZERO,
+            thr: Color::ONE,
+            ray,
+            from: ObjectId::NONE,
+            spheres: if opts.skip.view_culling {
+                scene.tested_primary
+            } else {
+                scene.tested
+            },
+            last: if opts.stratified {
+                Last::Eye
+            } else {
+                Last::Delta
+            },
+            rr_scale: 1.0,
+            prev: no_prev(),
+            glossy: GlossyChoice {
+                alpha: 0.0,
+                wo: Vec3::ZERO,
+                share_sum: 0.0,
+            },
+            depth: 0,
+            bounces: 0,
+            shadows: 0,
+            #[cfg(feature = "glass")]
+            no_split: false,
+            #[cfg(feature = "glass")]
+            pending: None,
+        }
+    }
+
+    /// One vertex: the closest hit and what its material does there.
+    /// Whether the path goes on.
+    #[inline(always)]
+    fn vertex<const MANY: bool, const TREE: bool>(
+        &mut self,
+        ctx: &Ctx<'_, 'a>,
+        stream: &mut SampleStream<'_>,
+        opts: &Options,
+        stats: &mut Stats,
+    ) -> bool {
+        let scene = ctx.scene;
+        let Some(hit) = self.closest_hit::<TREE>(scene, opts) else {
+            self.escape(scene, opts, stats);
+            return false;
+        };
+        let Some(mat) = scene.materials.get(hit.material as usize) else {
+            return false;
+        };
+        let goes_on = match mat.scatter(&hit, self.ray.dir, stream) {
+            Scatter::Emit(le) => {
+                self.emission::<MANY>(ctx, &hit, le, opts);
+                false
+            }
+            Scatter::Bsdf(Bsdf::Lambert(albedo)) => {
+                self.non_delta::<MANY, TREE, _>(ctx, &hit, Lambert(albedo), stream, opts)
+            }
+            #[cfg(feature = "metal")]
+            Scatter::Bsdf(Bsdf::Ggx(m)) => {
+                self.non_delta::<MANY, TREE, _>(ctx, &hit, m, stream, opts)
+            }
+            Scatter::Delta(ds) => self.delta(mat, &hit, ds, stream, opts),
+            Scatter::Absorb => false,
+        };
+        goes_on && self.advance(ctx, &hit, stream, opts, stats)
+    }
+
+    /// The closest surface along the ray, among the spheres it tests and
+    /// the planes.
+    #[inline(always)]
+    fn closest_hit<const TREE: bool>(&self, scene: &SceneView<'_>, opts: &Options) -> Option<Hit> {
+        if opts.skip.slabs {
+            scene.closest_hit_in::<TREE>(&self.ray, self.from, self.spheres)
+        } else {
+            // the out-of-line query takes the ray's address: a copy, so that
+            // the path's state need not live in memory
+            let ray = self.ray;
+            // the out-of-line query's record comes back through memory:
+            // rebuilt field by field, so that the inlined query's record
+            // need not live there too
+            scene
+                .closest_hit_any_among(&ray, self.from, self.spheres)
+                .map(|h| Hit {
+                    t: h.t,
+                    point: h.point,
+                    normal: h.normal,
+                    error: h.error,
+                    object: h.object,
+                    material: h.material,
+                })
+        }
+    }
+
+    /// The background's `L_e` along a ray that leaves the scene. Nothing
+    /// can escape a closed scene: there it is a numerical leak, counted.
+    #[inline(always)]
+    fn escape(&mut self, scene: &SceneView<'_>, opts: &Options, stats: &mut Stats) {
+        if scene.closed && opts.skip.closed {
+            stats.leaks += 1;
+        } else {
+            self.l += self.thr * scene.background;
+        }
+    }
+
+    /// The emitted radiance `L_e` of the emitter the path hits, on its
+    /// outward side, weighted by multiple importance sampling where
+    /// next-event estimation at the vertex before could have found it too.
+    /// The path ends (emitters reflect nothing).
+    #[inline(always)]
+    fn emission<const MANY: bool>(
+        &mut self,
+        ctx: &Ctx<'_, '_>,
+        hit: &Hit,
+        le: Color,
+        opts: &Options,
+    ) {
+        // a light seen in a mirror straight from the camera (`from`: the
+        // camera ray's object) whose image the highlight estimator samples:
+        // left to it
+        #[cfg(feature = "highlight")]
+        if self.depth == 1
+            && let Some(h) = ctx.highlights
+            && h.covers(self.from, hit.object)
+        {
+            return;
+        }
+        if math::lt_zero(self.ray.dir.dot(hit.normal)) {
+            let w = self.emission_weight::<MANY>(ctx, hit, opts);
+            self.l += self.thr * le * w;
+        }
+    }
+
+    /// The MIS weight of an emitter hit: 1 after the camera, a mirror or
+    /// glass (no light sample could find it); after a non-delta vertex, the
+    /// power heuristic of the BSDF sample's pdf against the light
+    /// sample's.
+    #[inline(always)]
+    fn emission_weight<const MANY: bool>(
+        &self,
+        ctx: &Ctx<'_, '_>,
+        hit: &Hit,
+        opts: &Options,
+    ) -> f32 {
+        if self.last != Last::NonDelta {
+            return 1.0;
+        }
+        match opts.strategy {
+            Strategy::BsdfOnly => 1.0,
+            Strategy::LightOnly => 0.0,
+            Strategy::Mis => {
+                let weigh = |prev: &PrevVertex| {
+                    let pl = hit.object.as_sphere().map_or(0.0, |i| {
+                        ctx.light_pdf::<MANY>(prev, &self.glossy, i, self.ray.dir)
+                    });
+                    power_heuristic(prev.bsdf_pdf, pl)
+                };
+                match self.prev {
+                    #[cfg(feature = "metal")]
+                    Some(prev) => weigh(&prev),
+                    // not reached: `last` is not `NonDelta` before the
+                    // first non-delta vertex
+                    #[cfg(feature = "metal")]
+                    None => 1.0,
+                    #[cfg(not(feature = "metal"))]
+                    prev => weigh(&prev),
+                }
+            }
+        }
+    }
+
+    /// A non-delta vertex, compiled once per lobe type (static dispatch):
+    /// next-event estimation, then the BSDF sample that continues the path.
+    /// Whether the path goes on.
+    #[inline(always)]
+    fn non_delta<const MANY: bool, const TREE: bool, B: Lobe>(
+        &mut self,
+        ctx: &Ctx<'_, '_>,
+        hit: &Hit,
+        lobe: B,
+        stream: &mut SampleStream<'_>,
+        opts: &Options,
+    ) -> bool {
+        self.forbid_split();
+        let at = Vertex {
+            hit,
+            n: if math::lt_zero(self.ray.dir.dot(hit.normal)) {
+                hit.normal
+            } else {
+                -hit.normal
+            },
+            wo: -self.ray.dir,
+            horizon: ctx.horizon_at(hit.object),
+        };
+        let (weight_sum, light_omc) =
+            self.direct_light::<MANY, TREE, B>(ctx, &at, &lobe, stream, opts);
+        let Some((dir, pi_pdf)) = self.bsdf_sample(&at, &lobe, stream, opts) else {
+            return false;
+        };
+        self.set_prev(PrevVertex {
+            point: hit.point,
+            normal: at.n,
+            bsdf_pdf: pi_pdf * math::INV_PI,
+            weight_sum,
+            light_omc,
+            horizon: at.horizon,
+        });
+        self.last = Last::NonDelta;
+        self.ray = hit.spawn_on(at.n, dir);
+        true
+    }
+
+    /// Next-event estimation at a non-delta vertex: `∫ L_e f_r cos θ dω`
+    /// over the lights, by one light sample (or, for a scene's one light
+    /// seen whole from a Lambertian point, in closed form), added to the
+    /// path's radiance. Returns what the MIS weight of an emitter that the
+    /// BSDF sample hits needs: the light-selection weights' sum and, with
+    /// one light, its `1 − cos θ_max` (see [`PrevVertex`]).
+    #[inline(always)]
+    fn direct_light<const MANY: bool, const TREE: bool, B: Lobe>(
+        &mut self,
+        ctx: &Ctx<'_, '_>,
+        at: &Vertex<'_>,
+        lobe: &B,
+        stream: &mut SampleStream<'_>,
+        opts: &Options,
+    ) -> (f32, f32) {
+        if opts.strategy == Strategy::BsdfOnly || ctx.plan.lights.is_empty() {
+            return (0.0, 0.0);
+        }
+        // drawn before the light is chosen, so that skipping a light below
+        // the horizon never shifts the random numbers; with the closed form
+        // in use (one light), only where the light is sampled
+        let early = if ctx.plan.one.is_some_and(|o| o.whole) {
+            None
+        } else {
+            Some(self.pair(stream, 2))
+        };
+        let f = self.thr * lobe.tint();
+        if MANY {
+            // several lights have no one-light plan, so the numbers were
+            // drawn above (`early` is `Some`)
+            let u = early.unwrap_or([0.0; 2]);
+            (
+                self.direct_many::<TREE, B>(ctx, at, f, lobe, u, stream, opts),
+                0.0,
+            )
+        } else if let Some(one) = &ctx.plan.one {
+            let omc = self.direct_one::<MANY, TREE, B>(ctx, one, at, f, lobe, early, stream, opts);
+            (1.0, omc)
+        } else {
+            (0.0, 0.0)
+        }
+    }
+
+    /// Next-event estimation among several lights: one chosen by its
+    /// expected contribution (at a glossy vertex, mixed with its share of
+    /// the lobe), sampled in its cone or through its window, a shadow ray.
+    /// Returns the selection weights' sum, negated where the glossy choice
+    /// applies.
+    #[allow(clippy::too_many_arguments)]
+    // inlined, except on cores without an FPU: there every float operation
+    // is a call, and inlined into each variant of the loop this step made a
+    // firmware of the several-lights scenes 10 KB larger (Cortex-M0,
+    // spheres.scene)
+    #[cfg_attr(
+        any(
+            all(target_arch = "arm", not(target_abi = "eabihf")),
+            all(target_arch = "riscv32", not(target_feature = "f"))
+        ),
+        inline(never)
+    )]
+    #[cfg_attr(
+        not(any(
+            all(target_arch = "arm", not(target_abi = "eabihf")),
+            all(target_arch = "riscv32", not(target_feature = "f"))
+        )),
+        inline(always)
+    )]
+    fn direct_many<const TREE: bool, B: Lobe>(
+        &mut self,
+        ctx: &Ctx<'_, '_>,
+        at: &Vertex<'_>,
+        f: Color,
+        lobe: &B,
+        u: [f32; 2],
+        stream: &mut SampleStream<'_>,
+        opts: &Options,
+    ) -> f32 {
+        let (hit, n, wo) = (at.hit, at.n, at.wo);
+        let first = self.last == Last::Eye;
+        let alpha = lobe.selective_alpha();
+        let (choice, sum) = if cfg!(feature = "metal") && alpha > 0.0 {
+            let (c, sum) = ctx.choose_light_glossy(
+                hit.point,
+                n,
+                at.horizon,
+                first,
+                stream,
+                alpha,
+                wo,
+                &mut self.glossy,
+            );
+            (c, -sum)
+        } else {
+            ctx.choose_light(hit.point, n, at.horizon, first, stream)
+        };
+        if let Some(c) = choice {
+            let scene = ctx.scene;
+            let shadows = &mut self.shadows;
+            let through = match window_of(ctx.windows(), c.sphere) {
+                Some(w) => {
+                    direct_window::<TREE, _>(scene, hit, n, f, lobe, wo, &c, u, opts, shadows, w)
+                }
+                None => None,
+            };
+            self.l += match through {
+                Some(e) => e,
+                None => direct::<TREE, _>(scene, hit, n, f, lobe, wo, &c, u, opts, shadows),
+            };
+        }
+        sum
+    }
+
+    /// Next-event estimation of a scene's one light: nothing where it is
+    /// inside the light or all of the light is below the horizon; the
+    /// closed form where a Lambertian point provably sees all of it
+    /// ([`whole_light`]); else a sample in its cone (or through its
+    /// window) and a shadow ray. Returns its `1 − cos θ_max` as
+    /// [`PrevVertex::light_omc`] records it.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn direct_one<const MANY: bool, const TREE: bool, B: Lobe>(
+        &mut self,
+        ctx: &Ctx<'_, '_>,
+        one: &OneLight<'_>,
+        at: &Vertex<'_>,
+        f: Color,
+        lobe: &B,
+        early: Option<[f32; 2]>,
+        stream: &mut SampleStream<'_>,
+        opts: &Options,
+    ) -> f32 {
+        let (scene, hit, n, wo) = (ctx.scene, at.hit, at.n, at.wo);
+        let to_c = one.center - hit.point;
+        let d2 = to_c.length_squared();
+        if !(math::gt(d2, one.radius2) && !(at.horizon && math::lt(n.dot(to_c), -one.radius))) {
+            return 0.0;
+        }
+        if one.whole
+            && lobe.cosine_weight().is_some()
+            && let Some(k) = whole_light(scene, hit, n, to_c, d2, one.radius, one.radius2)
+        {
+            self.l += self.thr * (lobe.tint() * (one.le * k));
+            return f32::INFINITY;
+        }
+        let u = match early {
+            Some(u) => u,
+            None => self.pair(stream, 2),
+        };
+        let c = LightChoice {
+            sphere: one.sphere,
+            p_sel: 1.0,
+            to_c,
+            d2,
+        };
+        let shadows = &mut self.shadows;
+        let through = match Ctx::window_of_one(one) {
+            Some(w) => nee_window::<MANY, TREE, _>(
+                scene, hit, n, f, lobe, wo, &c, one.le, u, opts, shadows, w,
+            ),
+            None => None,
+        };
+        if let Some(e) = through {
+            // negative: the window's pdf applies
+            self.l += e;
+            return -1.0;
+        }
+        let mut omc = 0.0;
+        self.l += nee::<MANY, TREE, _>(
+            scene,
+            hit,
+            n,
+            f,
+            lobe,
+            wo,
+            &c,
+            one.radius2,
+            one.le,
+            u,
+            opts,
+            shadows,
+            &mut omc,
+        );
+        omc
+    }
+
+    /// The BSDF sample that continues the path from a non-delta vertex:
+    /// its direction and π times its pdf, the throughput times
+    /// `f_r cos θ / pdf` (the Lambertian's: its albedo, exactly). `None`
+    /// where the lobe has no direction to give or Russian roulette ends the
+    /// path. A cosine-sampled vertex asks roulette before its direction,
+    /// which a path that roulette ends never needs (the same numbers in the
+    /// same order: the direction's are drawn before roulette's).
+    #[inline(always)]
+    fn bsdf_sample<B: Lobe>(
+        &mut self,
+        at: &Vertex<'_>,
+        lobe: &B,
+        stream: &mut SampleStream<'_>,
+        opts: &Options,
+    ) -> Option<(Vec3, f32)> {
+        let u = self.pair(stream, 1);
+        if let Some(w) = lobe.cosine_weight() {
+            self.thr *= w;
+            if !self.roulette(stream, opts) {
+                return None;
+            }
+            Some(sample_cosine(at.n, u[0], u[1], opts.fast_math))
+        } else {
+            let bs = lobe.sample(at.wo, at.n, u, opts.fast_math)?;
+            self.thr *= bs.weight;
+            if !self.roulette(stream, opts) {
+                return None;
+            }
+            Some((bs.dir, bs.pi_pdf))
+        }
+    }
+
+    /// A mirror or glass vertex: its sampled direction (the refraction,
+    /// where the path splits here, with the reflection kept for later),
+    /// its weight, then roulette. Whether the path goes on.
+    #[inline(always)]
+    fn delta(
+        &mut self,
+        mat: &Material,
+        hit: &Hit,
+        ds: DeltaSample,
+        stream: &mut SampleStream<'_>,
+        opts: &Options,
+    ) -> bool {
+        let ds = self.split(mat, hit, ds);
+        self.thr *= ds.weight;
+        self.rr_scale /= ds.scale;
+        self.last = self.last.max(Last::Delta);
+        self.ray = hit.spawn(ds.dir);
+        self.roulette(stream, opts)
+    }
+
+    /// The first glass vertex seen from the camera (through any mirrors and
+    /// glass, before any diffuse or glossy vertex) continues along both its
+    /// reflection and its refraction (the choice `ds` just drawn is not
+    /// used); every other glass vertex along the one chosen by the Fresnel
+    /// reflectance.
+    #[inline(always)]
+    fn split(&mut self, mat: &Material, hit: &Hit, ds: DeltaSample) -> DeltaSample {
+        #[cfg(feature = "glass")]
+        if let Some((t, b)) = split_at_glass(mat, hit, &self.ray, !self.no_split) {
+            self.no_split = true;
+            self.pending = Some(Branch {
+                thr: self.thr * b.thr,
+                rr_scale: self.rr_scale * b.rr_scale,
+                depth: self.depth + 1,
+                ..b
+            });
+            return t;
+        }
+        #[cfg(not(feature = "glass"))]
+        let _ = (mat, hit);
+        ds
+    }
+
+    /// A non-delta vertex ends the part of a path that may split at glass.
+    #[inline(always)]
+    fn forbid_split(&mut self) {
+        #[cfg(feature = "glass")]
+        {
+            self.no_split = true;
+        }
+    }
+
+    /// Russian roulette on the throughput with which the path leaves this
+    /// vertex (its `depth + 1`-th bounce): ends the path (`false`), or
+    /// weights the survivor by `1 / p`.
+    #[inline(always)]
+    fn roulette(&mut self, stream: &mut SampleStream<'_>, opts: &Options) -> bool {
+        if self.depth + 1 >= opts.rr_start {
+            let p = self.thr.max_component() * self.rr_scale * opts.rr_gain;
+            if math::lt(p, 1.0) {
+                if !math::lt(stream.next_f32(), p) {
+                    return false;
+                }
+                self.thr *= 1.0 / p;
+            }
+        }
+        true
+    }
+
+    /// After a vertex that continues the path: the depth, and from
+    /// [`super::PathPlan`]'s `deep` on, the depth roulette (or the cap).
+    /// Whether the path goes on.
+    #[inline(always)]
+    fn advance(
+        &mut self,
+        ctx: &Ctx<'_, 'a>,
+        hit: &Hit,
+        stream: &mut SampleStream<'_>,
+        opts: &Options,
+        stats: &mut Stats,
+    ) -> bool {
+        self.depth += 1;
+        self.spheres = ctx.scene.tested;
+        // one test per bounce for both the depth roulette and the cap
+        if self.depth >= ctx.plan.deep {
+            match deep_roulette(self.depth, opts, stream, stats) {
+                Some(w) => self.thr *= w,
+                None => return false,
+            }
+        }
+        self.from = hit.object;
+        self.bounces += 1;
+        true
+    }
+
+    /// The path's other branch, if it split at a glass vertex: whether
+    /// there was one to trace.
+    #[inline(always)]
+    fn resume_split(&mut self) -> bool {
+        #[cfg(feature = "glass")]
+        if let Some(b) = self.pending.take() {
+            self.ray = b.ray;
+            self.thr = b.thr;
+            self.rr_scale = b.rr_scale;
+            self.depth = b.depth;
+            self.from = b.from;
+            self.last = Last::Eye;
+            self.bounces += 1;
+            return true;
+        }
+        false
+    }
+
+    /// Two numbers for a vertex's choice `k` (1: the bounce, 2: the light
+    /// sample): from the pixel's stratified pairs at its first non-delta
+    /// vertex, independent after.
+    #[inline(always)]
+    fn pair(&self, stream: &mut SampleStream<'_>, k: u32) -> [f32; 2] {
+        if self.last == Last::Eye {
+            stream.stratified_2d(k)
+        } else {
+            stream.next_2d()
+        }
+    }
+
+    /// Records the non-delta vertex the path leaves.
+    #[inline(always)]
+    fn set_prev(&mut self, v: PrevVertex) {
+        #[cfg(feature = "metal")]
+        {
+            self.prev = Some(v);
+        }
+        #[cfg(not(feature = "metal"))]
+        {
+            self.prev = v;
+        }
+    }
+
+    /// The path's estimate; its counts go to `stats`.
+    #[inline(always)]
+    fn finish(self, stats: &mut Stats) -> Color {
+        stats.paths += 1;
+        stats.bounce_rays += u64::from(self.bounces);
+        stats.shadow_rays += u64::from(self.shadows);
+        self.l
+    }
+}
+
+/// No non-delta vertex yet (see [`Prev`]).
+#[inline(always)]
+fn no_prev() -> Prev {
+    #[cfg(feature = "metal")]
+    {
+        None
+    }
+    #[cfg(not(feature = "metal"))]
+    {
+        PrevVertex {
+            point: Vec3::ZERO,
+            normal: Vec3::ZERO,
+            bsdf_pdf: 0.0,
+            weight_sum: 0.0,
+            light_omc: 0.0,
+            horizon: false,
+        }
+    }
 }
 
 /// The depth roulette and the cap, for a path at `depth` bounces (at least
