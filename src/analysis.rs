@@ -368,7 +368,13 @@ fn plane_distance(pl: &Plane, p: Vec3) -> (f32, f32) {
     (d, MARGIN * scale)
 }
 
+// The tests below and `Setting`'s are out of line (`#[inline(never)]`):
+// the analysis runs once per scene load, and one copy of each test serves
+// every analysis that asks it. Inlined at each use they cost cornell's
+// Cortex-M4F firmware 640 bytes of flash.
+
 /// `inner` lies strictly inside ball `outer`.
+#[inline(never)]
 fn sphere_inside(inner: &Sphere, outer: &Sphere) -> bool {
     let d = (inner.center - outer.center).length();
     let tol = MARGIN * (d + inner.radius + outer.radius + outer.center.abs().max_component());
@@ -376,6 +382,7 @@ fn sphere_inside(inner: &Sphere, outer: &Sphere) -> bool {
 }
 
 /// `inner` lies strictly outside ball `outer`.
+#[inline(never)]
 fn sphere_outside(inner: &Sphere, outer: &Sphere) -> bool {
     let d = (inner.center - outer.center).length();
     let tol = MARGIN * (d + inner.radius + outer.radius + outer.center.abs().max_component());
@@ -384,12 +391,14 @@ fn sphere_outside(inner: &Sphere, outer: &Sphere) -> bool {
 
 /// Every point within `reach` of `p` strictly inside ball `s` (`reach` 0:
 /// the point itself).
+#[inline(never)]
 fn point_inside(p: Vec3, reach: f32, s: &Sphere) -> bool {
     let d = (p - s.center).length();
     d + reach < s.radius * (1.0 - MARGIN) - MARGIN * s.center.abs().max_component()
 }
 
 /// Every point within `reach` of `p` strictly outside ball `s`.
+#[inline(never)]
 fn point_outside(p: Vec3, reach: f32, s: &Sphere) -> bool {
     let d = (p - s.center).length();
     d - reach > s.radius * (1.0 + MARGIN) + MARGIN * s.center.abs().max_component()
@@ -397,7 +406,8 @@ fn point_outside(p: Vec3, reach: f32, s: &Sphere) -> bool {
 
 /// Analyses a scene's arrays (see the module docs) into `out`, every field
 /// rewritten, in place: the analysis is never on the stack (the firmware
-/// builds its scene in static memory this way).
+/// builds its scene in static memory this way). One function per analysis,
+/// each proving one skip, in the order their results feed each other.
 pub fn analyse_into<const S: usize, const P: usize>(
     out: &mut Analysis<S, P>,
     spheres: &[Sphere],
@@ -405,64 +415,122 @@ pub fn analyse_into<const S: usize, const P: usize>(
     materials: &[Material],
     camera: &CameraSpec,
 ) {
-    let Analysis {
-        lights,
-        emitters,
-        shadow_spheres,
-        shadow_planes,
-        view_order,
-        view_keys,
-        closed: closed_out,
-        slabs: slabs_out,
-        other_planes,
-        listed_view,
-        listed_shadow,
-        light_clear: light_clear_out,
-        horizon_planes: horizon_planes_out,
-        horizon_spheres: horizon_spheres_out,
-        windows,
-    } = out;
-    windows.clear();
-    lights.clear();
-    emitters.clear();
-    shadow_spheres.clear();
-    shadow_planes.clear();
-    view_order.clear();
-    view_keys.clear();
-    let eye = camera.eye;
-    // Where camera rays start: within `reach` of the eye (0 for a pinhole;
-    // the lens disk's radius with a margin for the rounding of a lens
-    // position). Every decision below about the camera's position holds for
-    // that whole ball, so a lens is "the camera" as the module docs say.
-    let reach = camera.aperture * (1.0 + MARGIN);
-    // which side of each opaque plane the camera is on (0: on the plane, or
-    // the lens reaches across it)
-    let side = |pl: &Plane| {
-        let (d, tol) = plane_distance(pl, eye);
-        if d > tol + reach {
+    let at = Setting {
+        spheres,
+        planes,
+        materials,
+        eye: camera.eye,
+        // Where camera rays start: within `reach` of the eye (0 for a
+        // pinhole; the lens disk's radius with a margin for the rounding of
+        // a lens position). Every decision about the camera's position holds
+        // for that whole ball, so a lens is "the camera" as the module docs
+        // say.
+        reach: camera.aperture * (1.0 + MARGIN),
+    };
+    reachable_lights(&at, &mut out.lights, &mut out.emitters);
+    shadow_occluders(
+        &at,
+        &out.lights,
+        &mut out.shadow_planes,
+        &mut out.shadow_spheres,
+    );
+    out.closed = closed(&at);
+    view_order(&at, camera, &mut out.view_order, &mut out.view_keys);
+    out.light_clear = light_clear(&at, &out.lights, &out.shadow_spheres, &out.shadow_planes);
+    windows(&at, &out.lights, &mut out.windows);
+    out.horizon_planes = horizon_planes(&at, &out.emitters);
+    out.horizon_spheres = horizon_spheres(&at, &out.emitters);
+    out.slabs = slabs(planes, materials, at.eye, at.reach, &mut out.other_planes);
+    listed(spheres, &out.view_order, &mut out.listed_view);
+    listed(spheres, &out.shadow_spheres, &mut out.listed_shadow);
+}
+
+/// A scene's arrays and the ball camera rays start from, as every analysis
+/// asks them.
+struct Setting<'s> {
+    spheres: &'s [Sphere],
+    planes: &'s [Plane],
+    materials: &'s [Material],
+    /// The eye.
+    eye: Vec3,
+    /// The radius of the ball around the eye that holds every camera ray's
+    /// origin.
+    reach: f32,
+}
+
+impl Setting<'_> {
+    /// Which side of plane `pl` the camera is on: ±1, or 0 where it is on
+    /// the plane or the lens reaches across it.
+    #[inline(never)]
+    fn side(&self, pl: &Plane) -> f32 {
+        let (d, tol) = plane_distance(pl, self.eye);
+        if d > tol + self.reach {
             1.0
-        } else if d < -tol - reach {
+        } else if d < -tol - self.reach {
             -1.0
         } else {
             0.0
         }
-    };
-    let light_on_camera_side = |pl: &Plane, l: &Sphere| {
-        let (d, tol) = plane_distance(pl, l.center);
-        let s = side(pl);
-        s != 0.0 && d * s > l.radius * (1.0 + MARGIN) + tol
-    };
-    let light_behind = |pl: &Plane, l: &Sphere| {
-        let (d, tol) = plane_distance(pl, l.center);
-        let s = side(pl);
-        s != 0.0 && -d * s > l.radius * (1.0 + MARGIN) + tol
-    };
-    let opaque_planes = || planes.iter().filter(|p| is_opaque(materials, p.material));
-    let opaque_spheres = || spheres.iter().filter(|s| is_opaque(materials, s.material));
+    }
 
-    // reachable emitters
-    for (i, l) in spheres.iter().enumerate() {
-        let emits = materials
+    /// All of light `l` lies on the camera's side of plane `pl`.
+    #[inline(never)]
+    fn light_on_camera_side(&self, pl: &Plane, l: &Sphere) -> bool {
+        let (d, tol) = plane_distance(pl, l.center);
+        let s = self.side(pl);
+        s != 0.0 && d * s > l.radius * (1.0 + MARGIN) + tol
+    }
+
+    /// All of light `l` lies on the far side of plane `pl` from the camera.
+    #[inline(never)]
+    fn light_behind(&self, pl: &Plane, l: &Sphere) -> bool {
+        let (d, tol) = plane_distance(pl, l.center);
+        let s = self.side(pl);
+        s != 0.0 && -d * s > l.radius * (1.0 + MARGIN) + tol
+    }
+
+    /// The whole camera ball lies strictly inside ball `q`.
+    #[inline(never)]
+    fn camera_inside(&self, q: &Sphere) -> bool {
+        point_inside(self.eye, self.reach, q)
+    }
+
+    fn opaque_planes(&self) -> impl Iterator<Item = &Plane> {
+        self.planes
+            .iter()
+            .filter(|p| is_opaque(self.materials, p.material))
+    }
+
+    fn opaque_spheres(&self) -> impl Iterator<Item = &Sphere> {
+        self.spheres
+            .iter()
+            .filter(|s| is_opaque(self.materials, s.material))
+    }
+
+    /// The spheres that `ids` name.
+    fn spheres_of<'i>(&self, ids: &'i [u16]) -> impl Iterator<Item = &Sphere> + 'i
+    where
+        Self: 'i,
+    {
+        let spheres = self.spheres;
+        ids.iter().filter_map(move |&i| spheres.get(i as usize))
+    }
+}
+
+/// The emitting spheres, and those of them a path can reach (the
+/// `unreachable_lights` skip): a light entirely behind an opaque plane,
+/// outside an opaque sphere around the camera, or inside an opaque sphere
+/// that does not hold the camera, is never sampled.
+fn reachable_lights<const S: usize>(
+    at: &Setting,
+    lights: &mut Vec<u16, S>,
+    emitters: &mut Vec<u16, S>,
+) {
+    lights.clear();
+    emitters.clear();
+    for (i, l) in at.spheres.iter().enumerate() {
+        let emits = at
+            .materials
             .get(l.material as usize)
             .and_then(Material::emission)
             .is_some_and(|le| le.max_component() > 0.0);
@@ -470,49 +538,76 @@ pub fn analyse_into<const S: usize, const P: usize>(
             continue;
         }
         let _ = emitters.push(i as u16);
-        let hidden_by_plane = opaque_planes().any(|p| light_behind(p, l));
-        let hidden_by_sphere = opaque_spheres().any(|q| {
+        let hidden_by_plane = at.opaque_planes().any(|p| at.light_behind(p, l));
+        let hidden_by_sphere = at.opaque_spheres().any(|q| {
             !core::ptr::eq(q, l)
-                && ((point_inside(eye, reach, q) && sphere_outside(l, q))
-                    || (point_outside(eye, reach, q) && sphere_inside(l, q)))
+                && ((at.camera_inside(q) && sphere_outside(l, q))
+                    || (point_outside(at.eye, at.reach, q) && sphere_inside(l, q)))
         });
         if !hidden_by_plane && !hidden_by_sphere {
             let _ = lights.push(i as u16);
         }
     }
-    let reachable = || lights.iter().filter_map(|&i| spheres.get(i as usize));
+}
 
-    // shadow-ray occluders
-    for (i, p) in planes.iter().enumerate() {
-        let skip =
-            is_opaque(materials, p.material) && reachable().all(|l| light_on_camera_side(p, l));
+/// The objects a shadow ray toward a reachable light must test (the
+/// `shadow_occluders` skip): not an opaque plane with every reachable light
+/// on the camera's side, not an opaque sphere around the camera that holds
+/// every reachable light, not the one light itself.
+fn shadow_occluders<const S: usize, const P: usize>(
+    at: &Setting,
+    lights: &[u16],
+    shadow_planes: &mut Vec<u16, P>,
+    shadow_spheres: &mut Vec<u16, S>,
+) {
+    shadow_planes.clear();
+    shadow_spheres.clear();
+    for (i, p) in at.planes.iter().enumerate() {
+        let skip = is_opaque(at.materials, p.material)
+            && at.spheres_of(lights).all(|l| at.light_on_camera_side(p, l));
         if !skip {
             let _ = shadow_planes.push(i as u16);
         }
     }
-    for (i, q) in spheres.iter().enumerate() {
+    for (i, q) in at.spheres.iter().enumerate() {
         let the_only_light = lights.len() == 1 && lights.first() == Some(&(i as u16));
         let skip = the_only_light
-            || is_opaque(materials, q.material)
-                && point_inside(eye, reach, q)
-                && reachable().all(|l| !core::ptr::eq(l, q) && sphere_inside(l, q));
+            || is_opaque(at.materials, q.material)
+                && at.camera_inside(q)
+                && at
+                    .spheres_of(lights)
+                    .all(|l| !core::ptr::eq(l, q) && sphere_inside(l, q));
         if !skip {
             let _ = shadow_spheres.push(i as u16);
         }
     }
+}
 
-    // closedness
-    let in_sphere = opaque_spheres().any(|q| point_inside(eye, reach, q));
-    let closed = in_sphere || planes_enclose(planes, materials, &side);
+/// Whether no ray can escape the camera's region (the `closed` skip): the
+/// camera inside an opaque sphere, or enclosed by opaque planes.
+fn closed(at: &Setting) -> bool {
+    at.opaque_spheres().any(|q| at.camera_inside(q)) || planes_enclose(at)
+}
 
-    // view culling keys: every point of a lens ray lies within the lens
-    // radius of the ray from the eye in the same direction, so each sphere
-    // is grown by `reach` (`Camera::view_cos` widens the cone to match)
-    let axis = (camera.target - eye).normalize();
-    for (i, s) in spheres.iter().enumerate() {
-        let to_c = s.center - eye;
+/// The view culling keys (the `view_culling` skip), sorted with the spheres'
+/// indices by descending key: the cosine of the smallest angle between the
+/// view axis and a direction to the sphere, 2 where the axis passes through
+/// the sphere's cone. Every point of a lens ray lies within the lens radius
+/// of the ray from the eye in the same direction, so each sphere is grown
+/// by `reach` (`Camera::view_cos` widens the cone to match).
+fn view_order<const S: usize>(
+    at: &Setting,
+    camera: &CameraSpec,
+    view_order: &mut Vec<u16, S>,
+    view_keys: &mut Vec<f32, S>,
+) {
+    view_order.clear();
+    view_keys.clear();
+    let axis = (camera.target - at.eye).normalize();
+    for (i, s) in at.spheres.iter().enumerate() {
+        let to_c = s.center - at.eye;
         let d = to_c.length();
-        let radius = s.radius + reach;
+        let radius = s.radius + at.reach;
         let key = if !(d > radius * (1.0 + MARGIN)) {
             2.0
         } else {
@@ -533,37 +628,48 @@ pub fn analyse_into<const S: usize, const P: usize>(
     }
     // the two lists sorted together by descending key, then index (a total
     // order, so the same result as any sort), in place: no list of the
-    // spheres on the stack, and far below n² for scenes of thousands
-    // gaps only where there can be many spheres
+    // spheres on the stack, and far below n² for scenes of thousands; gaps
+    // only where there can be many spheres
     sort_view(view_keys.as_mut_slice(), view_order.as_mut_slice(), S > 64);
+}
 
-    let light_clear = match (lights.as_slice(), reachable().next()) {
-        ([_], Some(l)) => {
-            shadow_spheres
-                .iter()
-                .filter_map(|&i| spheres.get(i as usize))
-                .all(|q| sphere_outside(q, l))
-                && shadow_planes
-                    .iter()
-                    .filter_map(|&i| planes.get(i as usize))
-                    .all(|p| {
-                        let (d, tol) = plane_distance(p, l.center);
-                        math::abs(d) > l.radius * (1.0 + MARGIN) + tol
-                    })
-        }
-        _ => false,
+/// Whether nothing of the occluder lists reaches into the one reachable
+/// light's ball (the chord test of shadow rays): a shadow ray may then end
+/// at any point of its chord through the light.
+fn light_clear(
+    at: &Setting,
+    lights: &[u16],
+    shadow_spheres: &[u16],
+    shadow_planes: &[u16],
+) -> bool {
+    let ([_], Some(l)) = (lights, at.spheres_of(lights).next()) else {
+        return false;
     };
-    // windows: the opaque wall that leaves the smallest cap of each
-    // reachable light on the camera's side. A plane with the light's centre
-    // behind it; a ball around the camera with the light's centre outside
-    // it, cut along their radical plane (a ball's part inside another ball
-    // is its part on one side of that plane), at s0 = (pow(c) + r²) / (2d)
-    // from the light's centre, pow(c) = |c − o|² − R² computed to a few
-    // ulps. Each distance is reduced by its rounding margin: a disk nearer
-    // the centre is wider and still shows all of the cap.
-    #[cfg(feature = "windows")]
-    for &i in lights.iter() {
-        let Some(l) = spheres.get(i as usize) else {
+    at.spheres_of(shadow_spheres).all(|q| sphere_outside(q, l))
+        && shadow_planes
+            .iter()
+            .filter_map(|&i| at.planes.get(i as usize))
+            .all(|p| {
+                let (d, tol) = plane_distance(p, l.center);
+                math::abs(d) > l.radius * (1.0 + MARGIN) + tol
+            })
+}
+
+/// The windows of reachable lights (the `windows` skip): the opaque wall
+/// that leaves the smallest cap of each light on the camera's side. A plane
+/// with the light's centre behind it; a ball around the camera with the
+/// light's centre outside it, cut along their radical plane (a ball's part
+/// inside another ball is its part on one side of that plane), at
+/// s0 = (pow(c) + r²) / (2d) from the light's centre, pow(c) = |c − o|² − R²
+/// computed to a few ulps. Each distance is reduced by its rounding margin:
+/// a disk nearer the centre is wider and still shows all of the cap.
+fn windows<const S: usize>(at: &Setting, lights: &[u16], windows: &mut Vec<Window, S>) {
+    windows.clear();
+    if !cfg!(feature = "windows") {
+        return;
+    }
+    for &i in lights {
+        let Some(l) = at.spheres.get(i as usize) else {
             continue;
         };
         let mut best: Option<(f32, Vec3)> = None;
@@ -572,15 +678,15 @@ pub fn analyse_into<const S: usize, const P: usize>(
                 best = Some((s0, toward));
             }
         };
-        for p in opaque_planes() {
+        for p in at.opaque_planes() {
             let (d, tol) = plane_distance(p, l.center);
-            let s = side(p);
+            let s = at.side(p);
             if s != 0.0 && -d * s > tol {
                 consider(-d * s - tol, p.normal * s);
             }
         }
-        for q in opaque_spheres() {
-            if core::ptr::eq(q, l) || !point_inside(eye, reach, q) {
+        for q in at.opaque_spheres() {
+            if core::ptr::eq(q, l) || !at.camera_inside(q) {
                 continue;
             }
             let to_q = q.center - l.center;
@@ -602,50 +708,63 @@ pub fn analyse_into<const S: usize, const P: usize>(
             let _ = windows.push(w);
         }
     }
-    // horizon tests: emitters (a superset of the reachable lights, so that
-    // the flags hold with the unreachable-lights skip off too)
-    let is_diffuse = |m: u16| {
-        materials
-            .get(m as usize)
-            .is_some_and(Material::samples_lights)
-    };
-    let emitting = || emitters.iter().filter_map(|&i| spheres.get(i as usize));
-    let horizon_planes = planes
+}
+
+/// Whether a material samples lights (its points do the horizon test).
+fn is_diffuse(materials: &[Material], m: u16) -> bool {
+    materials
+        .get(m as usize)
+        .is_some_and(Material::samples_lights)
+}
+
+/// Whether some emitter can lie entirely below the horizon of a point of a
+/// diffuse plane (the `horizon` skip, on planes): only one not entirely on
+/// the camera's side of the plane, as shading faces the camera's side.
+/// Emitters, a superset of the reachable lights, so that the answer holds
+/// with the unreachable-lights skip off too.
+fn horizon_planes(at: &Setting, emitters: &[u16]) -> bool {
+    at.planes
         .iter()
-        .filter(|p| is_diffuse(p.material))
-        .any(|p| emitting().any(|l| !light_on_camera_side(p, l)));
-    // from inside ball q (inward normal n at p = o + R·u is −u) a light of
-    // centre c and radius r sets below p's horizon where
-    // n·(c − p) = R − u·(c − o) < −r: for some p iff |c − o| > R + r, i.e.
-    // only a light entirely outside the ball. (A wrong answer here costs
-    // time, never correctness: a light below the horizon contributes zero
-    // either way, so the tolerances are rounding ones, not MARGIN: smallpt's camera
-    // is 2 units inside a ball of radius 1e5.)
+        .filter(|p| is_diffuse(at.materials, p.material))
+        .any(|p| {
+            at.spheres_of(emitters)
+                .any(|l| !at.light_on_camera_side(p, l))
+        })
+}
+
+/// The same for points of diffuse spheres (the `horizon` skip, on
+/// spheres). From inside ball q (inward normal n at p = o + R·u is −u) a
+/// light of centre c and radius r sets below p's horizon where
+/// n·(c − p) = R − u·(c − o) < −r: for some p iff |c − o| > R + r, i.e.
+/// only a light entirely outside the ball. (A wrong answer here costs time,
+/// never correctness: a light below the horizon contributes zero either
+/// way, so the tolerances are rounding ones, not MARGIN: smallpt's camera
+/// is 2 units inside a ball of radius 1e5.)
+fn horizon_spheres(at: &Setting, emitters: &[u16]) -> bool {
     let sets_inside = |q: &Sphere, l: &Sphere| {
         let d = (l.center - q.center).length();
         d > (q.radius + l.radius) * (1.0 - 1e-6)
     };
-    let eye_inside = |q: &Sphere| (eye - q.center).length() + reach < q.radius * (1.0 - 1e-6);
-    let horizon_spheres = spheres.iter().filter(|q| is_diffuse(q.material)).any(|q| {
-        !(eye_inside(q) && emitting().all(|l| !core::ptr::eq(q, l) && !sets_inside(q, l)))
-    });
-    *slabs_out = slabs(planes, materials, eye, reach, other_planes);
-    listed(spheres, view_order, listed_view);
-    listed(spheres, shadow_spheres, listed_shadow);
-    *closed_out = closed;
-    *light_clear_out = light_clear;
-    *horizon_planes_out = horizon_planes;
-    *horizon_spheres_out = horizon_spheres;
+    let eye_inside = |q: &Sphere| (at.eye - q.center).length() + at.reach < q.radius * (1.0 - 1e-6);
+    at.spheres
+        .iter()
+        .filter(|q| is_diffuse(at.materials, q.material))
+        .any(|q| {
+            !(eye_inside(q)
+                && at
+                    .spheres_of(emitters)
+                    .all(|l| !core::ptr::eq(q, l) && !sets_inside(q, l)))
+        })
 }
 
 /// Whether the opaque planes enclose `eye`: the cone of directions `v` with
 /// `n_i · v ≥ 0` for every plane's normal turned toward the eye is {0}. If
 /// it is not, it contains `±(n_i × n_j)` for some pair (its extreme rays or
 /// lineality space), or all normals are parallel.
-fn planes_enclose(planes: &[Plane], materials: &[Material], side: &dyn Fn(&Plane) -> f32) -> bool {
+fn planes_enclose(at: &Setting) -> bool {
     let mut normals: Vec<Vec3, 32> = Vec::new();
-    for p in planes.iter().filter(|p| is_opaque(materials, p.material)) {
-        let s = side(p);
+    for p in at.opaque_planes() {
+        let s = at.side(p);
         if s != 0.0 && normals.push(p.normal * s).is_err() {
             return false;
         }
