@@ -28,20 +28,13 @@
 //!
 //! * for the `firmware` feature, writes `firmware_config.rs` and
 //!   `firmware.scene` into `OUT_DIR`: the compile-time choice of scene, image
-//!   size, samples per pixel, seed and output file, read from environment
-//!   variables (see `docs/firmware.md`), and the machine's clock:
-//!
-//!   | variable            | default                   |
-//!   | ------------------- | ------------------------- |
-//!   | `MICROPT_FW_SCENE`  | `scenes/cornell.scene`    |
-//!   | `MICROPT_FW_SIZE`   | the scene's `resolution`, else `64x64` |
-//!   | `MICROPT_FW_SPP`    | `16`                      |
-//!   | `MICROPT_FW_SEED`   | `0`                       |
-//!   | `MICROPT_FW_OUT`    | `firmware.rgb565` (host path, relative to QEMU's working directory) |
-//!   | `MICROPT_FW_CORES`  | `2` (cores sharing the render: `examples/dualcore.rs` only) |
-//!   | `MICROPT_FW_MACHINE`| the target's machine (table above) |
-//!   | `MICROPT_FW_MEMORY` | the machine's memory map (table above); another map of the same machine, relative to the package root or absolute (`memory-mps2-an500-4m.x`: all 4 MiB of the `mps2-an500`'s RAM, for scenes of thousands of spheres) |
-//!   | `MICROPT_FW_FORCE_BVH` | `0`; `1` builds the bounding volume hierarchy whatever the scene's size (as the host CLI's `--force-bvh`; `MICROPT_FW_SKIP_OFF=bvh` still leaves it unused) |
+//!   size, samples per pixel, seed and output file, read from the
+//!   environment variables of [`SETTINGS`] (see `docs/firmware.md`), and the
+//!   machine's clock. `MICROPT_FW_MACHINE` chooses the machine (table
+//!   above); `MICROPT_FW_MEMORY` another memory map of the same machine,
+//!   relative to the package root or absolute (`memory-mps2-an500-4m.x`:
+//!   all 4 MiB of the `mps2-an500`'s RAM, for scenes of thousands of
+//!   spheres).
 //!
 //!   The scene's fixed capacities (spheres, planes, materials) are the counts
 //!   of those statements in the file, so the firmware's static RAM is what
@@ -53,6 +46,7 @@
 //!   several-lights variant (light choice, its pdfs, the outlined shadow
 //!   test).
 
+use std::collections::BTreeMap;
 use std::env;
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -198,6 +192,211 @@ fn var(name: &str) -> Option<String> {
     env::var(name).ok().filter(|v| !v.trim().is_empty())
 }
 
+/// One build-time setting of the `firmware` feature: an environment
+/// variable, the type of its value, its default and what it selects.
+struct Setting {
+    var: &'static str,
+    kind: Kind,
+    /// The value when the variable is unset or empty (`None`: the setting
+    /// is absent, and what stands in for it is said in `selects`).
+    default: Option<&'static str>,
+    selects: &'static str,
+}
+
+/// The type of a setting's value.
+#[derive(Clone, Copy)]
+enum Kind {
+    /// A path relative to the package root.
+    Path,
+    /// `WxH`, each within 1..=1024.
+    Size,
+    /// An integer > 0.
+    Positive,
+    /// An integer within 1..=2^32 − 1.
+    Count,
+    /// An integer ≥ 0.
+    Unsigned,
+    /// `0` or `1`.
+    Flag,
+    /// One of these words.
+    OneOf(&'static [&'static str]),
+    /// A comma-separated list of [`SKIPS`] fields, or `all`.
+    Skips,
+    /// Text without a NUL byte.
+    Text,
+}
+
+/// Every `MICROPT_FW_*` setting of the `firmware` feature but the machine
+/// and its memory map (read by `main`).
+const SETTINGS: [Setting; 10] = [
+    Setting {
+        var: "MICROPT_FW_SCENE",
+        kind: Kind::Path,
+        default: Some("scenes/cornell.scene"),
+        selects: "the scene (without the `parser` feature only cornell, built in code)",
+    },
+    Setting {
+        var: "MICROPT_FW_SIZE",
+        kind: Kind::Size,
+        default: None,
+        selects: "the image size; unset: the scene's `resolution`, else 64x64",
+    },
+    Setting {
+        var: "MICROPT_FW_SPP",
+        kind: Kind::Count,
+        default: Some("16"),
+        selects: "samples per pixel",
+    },
+    Setting {
+        var: "MICROPT_FW_SEED",
+        kind: Kind::Unsigned,
+        default: Some("0"),
+        selects: "the render's seed",
+    },
+    Setting {
+        var: "MICROPT_FW_BUDGET_MS",
+        kind: Kind::Positive,
+        default: None,
+        selects: "a deadline budget in milliseconds instead of MICROPT_FW_SPP",
+    },
+    Setting {
+        var: "MICROPT_FW_UNIFORM",
+        kind: Kind::Flag,
+        default: Some("0"),
+        selects: "uniform allocation (the unbiased estimator) instead of adaptive",
+    },
+    Setting {
+        var: "MICROPT_FW_SKIP_OFF",
+        kind: Kind::Skips,
+        default: Some(""),
+        selects: "skips of the scene analysis turned off (needs the `tunable` feature)",
+    },
+    Setting {
+        var: "MICROPT_FW_FORCE_BVH",
+        kind: Kind::Flag,
+        default: Some("0"),
+        selects: "the bounding volume hierarchy whatever the scene's size (as `--force-bvh`)",
+    },
+    Setting {
+        var: "MICROPT_FW_CORES",
+        kind: Kind::OneOf(&["1", "2"]),
+        default: Some("2"),
+        selects: "cores that share the render (examples/dualcore.rs only)",
+    },
+    Setting {
+        var: "MICROPT_FW_OUT",
+        kind: Kind::Text,
+        default: Some("firmware.rgb565"),
+        selects: "the host file the image is dumped to (relative to QEMU's working directory)",
+    },
+];
+
+/// The [`crate::Skip`] fields, in their order there.
+const SKIPS: [&str; 10] = [
+    "shadow_occluders",
+    "view_culling",
+    "specialize",
+    "horizon",
+    "unreachable_lights",
+    "closed",
+    "slabs",
+    "bvh",
+    "windows",
+    "whole_light",
+];
+
+/// A setting's value, checked against its [`Kind`].
+enum Value {
+    Absent,
+    Text(String),
+    Size(u32, u32),
+    Int(u64),
+    Flag(bool),
+    /// Per field of [`SKIPS`], whether the skip is on.
+    Skips([bool; SKIPS.len()]),
+}
+
+impl Kind {
+    fn parse(self, var: &str, s: &str) -> Result<Value, String> {
+        let t = s.trim();
+        Ok(match self {
+            Kind::Path => Value::Text(s.to_string()),
+            Kind::Size => {
+                let (w, h) = parse_size(s)?;
+                Value::Size(w, h)
+            }
+            Kind::Positive => Value::Int(
+                t.parse()
+                    .ok()
+                    .filter(|&n| n > 0)
+                    .ok_or_else(|| format!("{var}={s:?} is not a positive integer"))?,
+            ),
+            Kind::Count => Value::Int(
+                t.parse::<u32>()
+                    .ok()
+                    .filter(|&n| n > 0)
+                    .ok_or_else(|| format!("{var}={s:?} is not a positive integer"))?
+                    .into(),
+            ),
+            Kind::Unsigned => Value::Int(
+                t.parse()
+                    .map_err(|_| format!("{var}={s:?} is not an unsigned integer"))?,
+            ),
+            Kind::Flag => match t {
+                "0" => Value::Flag(false),
+                "1" => Value::Flag(true),
+                _ => return Err(format!("{var}={t:?} is not 0 or 1")),
+            },
+            Kind::OneOf(words) => match words.iter().find(|w| **w == t) {
+                Some(w) => Value::Text(w.to_string()),
+                None => return Err(format!("{var}={t:?} is not {}", words.join(" or "))),
+            },
+            Kind::Skips => Value::Skips(parse_skips(var, s)?),
+            Kind::Text if s.contains('\0') => return Err(format!("{var} contains a NUL byte")),
+            Kind::Text => Value::Text(s.to_string()),
+        })
+    }
+}
+
+/// Every setting of [`SETTINGS`], read and checked.
+fn read_settings() -> Result<BTreeMap<&'static str, Value>, String> {
+    let mut values = BTreeMap::new();
+    for s in &SETTINGS {
+        let value = match (var(s.var), s.default) {
+            (Some(v), _) => s.kind.parse(s.var, &v),
+            (None, Some(d)) => s.kind.parse(s.var, d),
+            (None, None) => Ok(Value::Absent),
+        }
+        .map_err(|e| format!("{e} ({} selects {})", s.var, s.selects))?;
+        values.insert(s.var, value);
+    }
+    Ok(values)
+}
+
+/// The settings' values by name, typed.
+struct Settings(BTreeMap<&'static str, Value>);
+
+impl Settings {
+    fn get(&self, var: &str) -> &Value {
+        self.0.get(var).unwrap_or(&Value::Absent)
+    }
+    fn text(&self, var: &str) -> String {
+        match self.get(var) {
+            Value::Text(t) => t.clone(),
+            _ => String::new(),
+        }
+    }
+    fn int(&self, var: &str) -> Option<u64> {
+        match self.get(var) {
+            Value::Int(n) => Some(*n),
+            _ => None,
+        }
+    }
+    fn flag(&self, var: &str) -> bool {
+        matches!(self.get(var), Value::Flag(true))
+    }
+}
+
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -210,78 +409,115 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), String> {
-    let scene_rel = var("MICROPT_FW_SCENE").unwrap_or_else(|| "scenes/cornell.scene".into());
-    let scene_path = root.join(&scene_rel);
-    println!("cargo:rerun-if-changed={}", scene_path.display());
-    let text = fs::read_to_string(&scene_path)
-        .map_err(|e| format!("cannot read scene {}: {e}", scene_path.display()))?;
+/// `MICROPT_FW_SKIP_OFF`: per field of [`SKIPS`], whether the skip stays
+/// on.
+fn parse_skips(var: &str, list: &str) -> Result<[bool; SKIPS.len()], String> {
+    let mut skip_on = [true; SKIPS.len()];
+    if !list.trim().is_empty() && env::var_os("CARGO_FEATURE_TUNABLE").is_none() {
+        return Err(format!(
+            "{var}={list:?} needs the `tunable` feature: without it every skip is compiled in"
+        ));
+    }
+    for name in list.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+        if name == "all" {
+            skip_on = [false; SKIPS.len()];
+            continue;
+        }
+        let i = SKIPS.iter().position(|s| *s == name).ok_or_else(|| {
+            format!(
+                "{var}: unknown Skip field {name:?} (expected all or some of {})",
+                SKIPS.join(", ")
+            )
+        })?;
+        skip_on[i] = false;
+    }
+    Ok(skip_on)
+}
 
-    // capacities: the number of statements of each kind (the parser on the
-    // board reports a capacity error, not a panic, if this count were short)
-    let (mut spheres, mut planes, mut materials) = (0usize, 0usize, 0usize);
-    let mut resolution = None;
-    // names of `light` materials, and the spheres that use one (a sphere
-    // names its material last: `sphere X Y Z R NAME`)
+/// What the build needs to know of a scene file: its statements' counts
+/// (the fixed capacities; the parser on the board reports a capacity
+/// error, not a panic, if a count were short), its resolution and the
+/// spheres with a `light` material.
+struct SceneCounts {
+    spheres: usize,
+    planes: usize,
+    materials: usize,
+    resolution: Option<(u32, u32)>,
+    light_spheres: usize,
+}
+
+fn scene_counts(text: &str) -> SceneCounts {
+    let mut c = SceneCounts {
+        spheres: 0,
+        planes: 0,
+        materials: 0,
+        resolution: None,
+        light_spheres: 0,
+    };
+    // names of `light` materials (a sphere names its material last:
+    // `sphere X Y Z R NAME`)
     let mut light_names: Vec<&str> = Vec::new();
-    let mut light_spheres = 0usize;
     for line in text.lines() {
         let code = line.split('#').next().unwrap_or("");
         let toks: Vec<&str> = code.split_whitespace().collect();
         match toks.first().copied() {
             Some("material") => {
-                materials += 1;
+                c.materials += 1;
                 if let (Some(&name), Some(&"light")) = (toks.get(1), toks.get(2)) {
                     light_names.push(name);
                 }
             }
             Some("sphere") => {
-                spheres += 1;
+                c.spheres += 1;
                 if toks.last().is_some_and(|m| light_names.contains(m)) {
-                    light_spheres += 1;
+                    c.light_spheres += 1;
                 }
             }
-            Some("plane") => planes += 1,
+            Some("plane") => c.planes += 1,
             Some("resolution") if toks.len() == 3 => {
                 if let (Ok(w), Ok(h)) = (toks[1].parse::<u32>(), toks[2].parse::<u32>()) {
-                    resolution = Some((w, h));
+                    c.resolution = Some((w, h));
                 }
             }
             _ => {}
         }
     }
-    // a scene below the board's tree threshold (analysis::TREE_MIN_SPHERES
-    // on a target without an OS: 24) never gets a bounding volume hierarchy:
-    // leave its code out of the firmware (about 30 KB of flash: the build,
-    // both traversals and the integrator's tree variants)
-    let force_bvh = match var("MICROPT_FW_FORCE_BVH").as_deref().map(str::trim) {
-        None | Some("0") => false,
-        Some("1") => true,
-        Some(s) => return Err(format!("MICROPT_FW_FORCE_BVH={s:?} is not 0 or 1")),
+    c
+}
+
+/// `Skip { .. }`'s fields and the summary line's label of the skips on.
+fn skip_source(skip_on: &[bool; SKIPS.len()]) -> (String, String) {
+    let fields: String = SKIPS
+        .iter()
+        .zip(skip_on)
+        .map(|(n, on)| format!("{n}: {on}, "))
+        .collect();
+    let label = if skip_on.iter().all(|&on| on) {
+        "all".to_string()
+    } else if skip_on.iter().all(|&on| !on) {
+        "none".to_string()
+    } else {
+        let off: Vec<&str> = SKIPS
+            .iter()
+            .zip(skip_on)
+            .filter(|(_, on)| !**on)
+            .map(|(n, _)| *n)
+            .collect();
+        format!("all but {}", off.join(","))
     };
-    if spheres < 24 && !force_bvh {
-        println!("cargo:rustc-cfg=micropt_no_bvh");
-    }
-    let (width, height) = match var("MICROPT_FW_SIZE") {
-        Some(s) => parse_size(&s)?,
-        None => resolution.unwrap_or((64, 64)),
-    };
-    let spp: u32 = match var("MICROPT_FW_SPP") {
-        Some(s) => s
-            .trim()
-            .parse()
-            .ok()
-            .filter(|&n| n > 0)
-            .ok_or_else(|| format!("MICROPT_FW_SPP={s:?} is not a positive integer"))?,
-        None => 16,
-    };
-    let seed: u64 = match var("MICROPT_FW_SEED") {
-        Some(s) => s
-            .trim()
-            .parse()
-            .map_err(|_| format!("MICROPT_FW_SEED={s:?} is not an unsigned integer"))?,
-        None => 0,
-    };
+    (fields, label)
+}
+
+/// Reads the settings and the scene, sets the cfgs that leave code out,
+/// and writes `firmware.scene` and `firmware_config.rs` into `out`.
+fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), String> {
+    let settings = Settings(read_settings()?);
+    let scene_rel = settings.text("MICROPT_FW_SCENE");
+    let scene_path = root.join(&scene_rel);
+    println!("cargo:rerun-if-changed={}", scene_path.display());
+    let text = fs::read_to_string(&scene_path)
+        .map_err(|e| format!("cannot read scene {}: {e}", scene_path.display()))?;
+    let counts = scene_counts(&text);
     let parser = env::var_os("CARGO_FEATURE_PARSER").is_some();
     if !parser && scene_rel != "scenes/cornell.scene" {
         return Err(format!(
@@ -289,52 +525,17 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
              the Cornell box built in code; unset MICROPT_FW_SCENE or enable `parser`"
         ));
     }
-    let deadline_ms: Option<u64> =
-        match var("MICROPT_FW_BUDGET_MS") {
-            Some(s) => {
-                Some(s.trim().parse().ok().filter(|&n| n > 0).ok_or_else(|| {
-                    format!("MICROPT_FW_BUDGET_MS={s:?} is not a positive integer")
-                })?)
-            }
-            None => None,
-        };
-    let uniform = match var("MICROPT_FW_UNIFORM").as_deref().map(str::trim) {
-        None | Some("0") => false,
-        Some("1") => true,
-        Some(s) => return Err(format!("MICROPT_FW_UNIFORM={s:?} is not 0 or 1")),
+    let skip_on = match settings.get("MICROPT_FW_SKIP_OFF") {
+        Value::Skips(on) => *on,
+        _ => [true; SKIPS.len()],
     };
-    const SKIPS: [&str; 10] = [
-        "shadow_occluders",
-        "view_culling",
-        "specialize",
-        "horizon",
-        "unreachable_lights",
-        "closed",
-        "slabs",
-        "bvh",
-        "windows",
-        "whole_light",
-    ];
-    let mut skip_on = [true; SKIPS.len()];
-    let skip_off = var("MICROPT_FW_SKIP_OFF").unwrap_or_default();
-    if !skip_off.trim().is_empty() && var("CARGO_FEATURE_TUNABLE").is_none() {
-        return Err(format!(
-            "MICROPT_FW_SKIP_OFF={skip_off:?} needs the `tunable` feature: without it \
-             every skip is compiled in"
-        ));
-    }
-    for name in skip_off.split(',').map(str::trim).filter(|n| !n.is_empty()) {
-        if name == "all" {
-            skip_on = [false; SKIPS.len()];
-            continue;
-        }
-        let i = SKIPS.iter().position(|s| *s == name).ok_or_else(|| {
-            format!(
-                "MICROPT_FW_SKIP_OFF: unknown Skip field {name:?} (expected all or some of {})",
-                SKIPS.join(", ")
-            )
-        })?;
-        skip_on[i] = false;
+    // a scene below the board's tree threshold (analysis::TREE_MIN_SPHERES
+    // on a target without an OS: 24) never gets a bounding volume hierarchy:
+    // leave its code out of the firmware (about 30 KB of flash: the build,
+    // both traversals and the integrator's tree variants)
+    let force_bvh = settings.flag("MICROPT_FW_FORCE_BVH");
+    if counts.spheres < 24 && !force_bvh {
+        println!("cargo:rustc-cfg=micropt_no_bvh");
     }
     // one light at most, and the integrator's one-light variant in use
     // (`specialize` on): the several-lights variant is never run, so leave
@@ -343,39 +544,8 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
         .iter()
         .zip(skip_on)
         .any(|(n, on)| *n == "specialize" && on);
-    if light_spheres <= 1 && specialize {
+    if counts.light_spheres <= 1 && specialize {
         println!("cargo:rustc-cfg=micropt_one_light");
-    }
-    let skip_fields: String = SKIPS
-        .iter()
-        .zip(skip_on)
-        .map(|(n, on)| format!("{n}: {on}, "))
-        .collect();
-    let skip_label = if skip_on.iter().all(|&on| on) {
-        "all".to_string()
-    } else if skip_on.iter().all(|&on| !on) {
-        "none".to_string()
-    } else {
-        let off: Vec<&str> = SKIPS
-            .iter()
-            .zip(skip_on)
-            .filter(|(_, on)| !on)
-            .map(|(n, _)| *n)
-            .collect();
-        format!("all but {}", off.join(","))
-    };
-    let budget = match deadline_ms {
-        Some(ms) => format!("micropt::Budget::Deadline({})", ms * 1000),
-        None => "micropt::Budget::Spp(SPP)".to_string(),
-    };
-    let cores: usize = match var("MICROPT_FW_CORES").as_deref().map(str::trim) {
-        None | Some("2") => 2,
-        Some("1") => 1,
-        Some(s) => return Err(format!("MICROPT_FW_CORES={s:?} is not 1 or 2")),
-    };
-    let output = var("MICROPT_FW_OUT").unwrap_or_else(|| "firmware.rgb565".into());
-    if output.contains('\0') {
-        return Err("MICROPT_FW_OUT contains a NUL byte".into());
     }
     let scene_name = if parser {
         Path::new(&scene_rel)
@@ -384,9 +554,35 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
     } else {
         "cornell (built in code)".to_string()
     };
-
     fs::write(out.join("firmware.scene"), &text).map_err(|e| e.to_string())?;
-    let config = format!(
+    let source = config_source(&settings, &counts, &skip_on, &scene_name, machine);
+    fs::write(out.join("firmware_config.rs"), source).map_err(|e| e.to_string())
+}
+
+/// The generated `firmware_config.rs`.
+fn config_source(
+    settings: &Settings,
+    counts: &SceneCounts,
+    skip_on: &[bool; SKIPS.len()],
+    scene_name: &str,
+    machine: &Machine,
+) -> String {
+    let (width, height) = match settings.get("MICROPT_FW_SIZE") {
+        Value::Size(w, h) => (*w, *h),
+        _ => counts.resolution.unwrap_or((64, 64)),
+    };
+    let spp = settings.int("MICROPT_FW_SPP").unwrap_or(16);
+    let seed = settings.int("MICROPT_FW_SEED").unwrap_or(0);
+    let budget = match settings.int("MICROPT_FW_BUDGET_MS") {
+        Some(ms) => format!("micropt::Budget::Deadline({})", ms * 1000),
+        None => "micropt::Budget::Spp(SPP)".to_string(),
+    };
+    let uniform = settings.flag("MICROPT_FW_UNIFORM");
+    let force_bvh = settings.flag("MICROPT_FW_FORCE_BVH");
+    let cores = settings.text("MICROPT_FW_CORES");
+    let output = settings.text("MICROPT_FW_OUT");
+    let (skip_fields, skip_label) = skip_source(skip_on);
+    format!(
         "// generated by build.rs from the MICROPT_FW_* environment variables\n\
          /// Frequency of the clock the firmware reads (SysTick's core clock,\n\
          /// or the RISC-V timer's timebase), in QEMU.\n\
@@ -426,11 +622,10 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
          #[allow(dead_code)] // only the dual-core firmware reads it\n\
          pub const CORES: usize = {cores};\n",
         output.escape_default(),
-        spheres.max(1),
-        planes.max(1),
-        materials.max(1),
+        counts.spheres.max(1),
+        counts.planes.max(1),
+        counts.materials.max(1),
         !uniform,
         clock_hz = machine.clock_hz,
-    );
-    fs::write(out.join("firmware_config.rs"), config).map_err(|e| e.to_string())
+    )
 }
