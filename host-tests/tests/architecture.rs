@@ -286,3 +286,94 @@ fn no_core_file_outgrows_a_reading() {
         "core files over {MAX_LINES} lines: {long:?}"
     );
 }
+
+/// The longest a function of the core, the harness's library or the build
+/// script may be: one screen, so that each does one job that a reader
+/// holds in view.
+const MAX_FN_LINES: usize = 150;
+
+/// The functions of `text` longer than `max` lines, as `(name, first line,
+/// lines)`: a line that starts (after indentation and qualifiers such as
+/// `pub(crate)`, `const`, `unsafe`) with `fn NAME` opens one, and the first
+/// later line that is its indentation followed by `}` closes it. (rustfmt's
+/// layout: a function's closing brace stands alone at the indentation of
+/// its signature.)
+fn long_functions(text: &str, max: usize) -> Vec<(String, usize, usize)> {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut found = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        let body = line.trim_start();
+        let indent = &line[..line.len() - body.len()];
+        let mut rest = body;
+        for q in [
+            "pub(crate) ",
+            "pub(super) ",
+            "pub ",
+            "const ",
+            "async ",
+            "unsafe ",
+        ] {
+            rest = rest.strip_prefix(q).unwrap_or(rest);
+        }
+        let Some(sig) = rest.strip_prefix("fn ") else {
+            continue;
+        };
+        let name: String = sig
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        // a declaration without a body (a trait's) ends on its own line,
+        // and so does a one-line function
+        let opens = body.matches('{').count();
+        if line.trim_end().ends_with(';') || opens > 0 && opens == body.matches('}').count() {
+            continue;
+        }
+        let close = format!("{indent}}}");
+        if let Some(end) = lines[i + 1..].iter().position(|l| l.trim_end() == close) {
+            let n = end + 2;
+            if n > max {
+                found.push((name, i + 1, n));
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn no_function_outgrows_a_screen() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut files = Vec::new();
+    rust_files(&src_dir(), &mut files);
+    rust_files(&root.join("host-tests/src"), &mut files);
+    files.push(root.join("build.rs"));
+    assert!(files.len() > 30);
+    let long: Vec<String> = files
+        .iter()
+        .flat_map(|f| {
+            let text = fs::read_to_string(f).unwrap();
+            long_functions(&text, MAX_FN_LINES)
+                .into_iter()
+                .map(move |(name, at, n)| format!("{}:{at} fn {name}: {n} lines", f.display()))
+        })
+        .collect();
+    assert!(
+        long.is_empty(),
+        "functions over {MAX_FN_LINES} lines: {long:?}"
+    );
+}
+
+/// The length check finds a long function (at any indentation, with
+/// qualifiers), and leaves short ones and bodiless declarations alone.
+#[test]
+fn the_length_check_counts_a_function_from_its_signature_to_its_brace() {
+    let body = "        let x = 1;\n".repeat(5);
+    let text = format!(
+        "impl A {{\n    fn short() {{}}\n    pub(crate) const fn long() -> u32 {{\n{body}    }}\n}}\n\
+         trait T {{\n    fn decl(&self);\n}}\nfn top() {{\n{body}}}\n"
+    );
+    assert_eq!(
+        long_functions(&text, 6),
+        [("long".to_string(), 3, 7), ("top".to_string(), 14, 7)]
+    );
+    assert!(long_functions(&text, 7).is_empty());
+}
