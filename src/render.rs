@@ -5,7 +5,7 @@
 use crate::camera::{Camera, CameraError};
 use crate::film::Tile;
 use crate::geometry::{Color, Ray};
-use crate::integrator::{self, Options, PathPlan, Stats};
+use crate::integrator::{self, Options, PathPlan, PathSum, Stats};
 use crate::sampler::{PixelSampler, SampleStream, pixel_key_of, seed_key};
 use crate::scene::bvh::BvhView;
 use crate::scene::{Scene, SceneView};
@@ -211,6 +211,23 @@ impl<'a> Renderer<'a> {
     /// beforehand ([`Renderer::pixel`]`(x, y)`; the same bits).
     #[inline(always)]
     pub fn sample_in(&self, pixel: &Pixel, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
+        self.sample_parts_in(pixel, x, y, index, stats).total
+    }
+
+    /// [`Renderer::sample_in`] with the estimate's direct part: the light
+    /// that reached the camera through no non-delta vertex (lights seen
+    /// directly, in mirrors or through glass, and the highlight
+    /// estimator's). `total` has the same bits as [`Renderer::sample_in`]'s
+    /// result; a sample counted as non-finite is zero in both parts.
+    #[inline(always)]
+    pub fn sample_parts_in(
+        &self,
+        pixel: &Pixel,
+        x: u32,
+        y: u32,
+        index: u32,
+        stats: &mut Stats,
+    ) -> PathSum {
         let mut s = pixel.sampler.stream(index);
         let ray = self.primary_ray(&mut s, x, y);
         #[allow(unused_mut)]
@@ -227,14 +244,23 @@ impl<'a> Renderer<'a> {
         // the lights seen in mirrors that the path left out
         #[cfg(feature = "highlight")]
         if !pixel.highlights.is_empty() {
-            c += self.highlights_of(pixel, x, y, index, stats);
+            let h = self.highlights_of(pixel, x, y, index, stats);
+            c.total += h;
+            c.direct += h;
         }
-        let kept = |v: f32| crate::math::abs_at_most(v, SAMPLE_MAX);
-        if kept(c.x) && kept(c.y) && kept(c.z) {
+        let kept = |v: Color| {
+            crate::math::abs_at_most(v.x, SAMPLE_MAX)
+                && crate::math::abs_at_most(v.y, SAMPLE_MAX)
+                && crate::math::abs_at_most(v.z, SAMPLE_MAX)
+        };
+        if kept(c.total) {
             c
         } else {
             stats.nonfinite += 1;
-            Color::ZERO
+            PathSum {
+                total: Color::ZERO,
+                direct: Color::ZERO,
+            }
         }
     }
 

@@ -62,6 +62,7 @@ pub(crate) use plan::PathPlan;
 use crate::geometry::{Color, Ray};
 use crate::sampler::SampleStream;
 use crate::scene::SceneView;
+pub use path::PathSum;
 use path::trace;
 use plan::Ctx;
 
@@ -277,11 +278,13 @@ pub fn radiance(
         opts,
         stats,
     )
+    .total
 }
 
 /// [`radiance`] with the decisions of `plan`, which must be
 /// `PathPlan::new(scene, opts)`, leaving out the emission that a camera ray
-/// meets right after a mirror for the pairs of `highlights`.
+/// meets right after a mirror for the pairs of `highlights`; the estimate
+/// with its direct part ([`PathSum`]).
 #[inline(always)]
 pub(crate) fn radiance_planned(
     scene: &SceneView<'_>,
@@ -291,7 +294,7 @@ pub(crate) fn radiance_planned(
     stream: &mut SampleStream<'_>,
     opts: &Options,
     stats: &mut Stats,
-) -> Color {
+) -> PathSum {
     let ctx = Ctx {
         scene,
         plan,

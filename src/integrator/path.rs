@@ -57,7 +57,7 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
     stream: &mut SampleStream<'_>,
     opts: &Options,
     stats: &mut Stats,
-) -> Color {
+) -> PathSum {
     let mut path = PathState::new(ctx.scene, ray, opts);
     loop {
         while path.vertex::<MANY, TREE>(ctx, stream, opts, stats) {}
@@ -106,11 +106,31 @@ struct Vertex<'h> {
     horizon: bool,
 }
 
+/// A path's estimate of the radiance along its camera ray, and the part
+/// of it that no non-delta vertex scattered.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathSum {
+    /// The estimate of `L` along the camera ray.
+    pub total: Color,
+    /// The part of `total` that emitters (and the background) give straight
+    /// to the camera or through mirrors and glass only: a light seen
+    /// directly, its image in a mirror ball or through a glass ball. A
+    /// denoiser keeps it out of its filter (it is sharp, and most of it has
+    /// no noise); callers that do not split the estimate ignore it, and the
+    /// compiler drops its arithmetic.
+    pub direct: Color,
+}
+
 /// One path between its vertices.
 struct PathState<'a> {
     /// The radiance gathered so far: the estimate of `L` along the camera
     /// ray.
     l: Color,
+    /// The part of `l` gathered before the first non-delta vertex (see
+    /// [`PathSum::direct`]).
+    direct: Color,
+    /// Whether the path (this branch of it) has met a non-delta vertex.
+    scattered: bool,
     /// The throughput: the product of `f_r cos θ / pdf` (and of roulette's
     /// weights) from the camera to `ray`'s origin.
     thr: Color,
@@ -152,6 +172,8 @@ impl<'a> PathState<'a> {
     fn new(scene: &SceneView<'a>, ray: Ray, opts: &Options) -> Self {
         Self {
             l: Color::ZERO,
+            direct: Color::ZERO,
+            scattered: false,
             thr: Color::ONE,
             ray,
             from: ObjectId::NONE,
@@ -251,7 +273,7 @@ impl<'a> PathState<'a> {
         if scene.closed && opts.skip.closed {
             stats.leaks += 1;
         } else {
-            self.l += self.thr * scene.background;
+            self.add(self.thr * scene.background);
         }
     }
 
@@ -279,7 +301,7 @@ impl<'a> PathState<'a> {
         }
         if math::lt_zero(self.ray.dir.dot(hit.normal)) {
             let w = self.emission_weight::<MANY>(ctx, hit, opts);
-            self.l += self.thr * le * w;
+            self.add(self.thr * le * w);
         }
     }
 
@@ -334,6 +356,7 @@ impl<'a> PathState<'a> {
         opts: &Options,
     ) -> bool {
         self.forbid_split();
+        self.scattered = true;
         let at = Vertex {
             hit,
             n: if math::lt_zero(self.ray.dir.dot(hit.normal)) {
@@ -686,6 +709,8 @@ impl<'a> PathState<'a> {
             self.depth = b.depth;
             self.from = b.from;
             self.last = Last::Eye;
+            // a path splits only before its first non-delta vertex
+            self.scattered = false;
             self.bounces += 1;
             return true;
         }
@@ -717,13 +742,26 @@ impl<'a> PathState<'a> {
         }
     }
 
+    /// Emitted radiance `c` that reaches the camera along the path: to the
+    /// estimate, and to its direct part before the first non-delta vertex.
+    #[inline(always)]
+    fn add(&mut self, c: Color) {
+        self.l += c;
+        if !self.scattered {
+            self.direct += c;
+        }
+    }
+
     /// The path's estimate; its counts go to `stats`.
     #[inline(always)]
-    fn finish(self, stats: &mut Stats) -> Color {
+    fn finish(self, stats: &mut Stats) -> PathSum {
         stats.paths += 1;
         stats.bounce_rays += u64::from(self.bounces);
         stats.shadow_rays += u64::from(self.shadows);
-        self.l
+        PathSum {
+            total: self.l,
+            direct: self.direct,
+        }
     }
 }
 
