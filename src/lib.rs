@@ -32,7 +32,8 @@
 //! [`integrator`], [`film`], [`render`], [`budget`] (fixed budgets,
 //! progressive and adaptive), [`multicore`] (one budgeted render shared
 //! between cores; its atomic work queues on targets with atomic
-//! read-modify-write).
+//! read-modify-write), [`denoise`] (the streaming denoiser: guided filters
+//! chosen per pixel by their estimated error).
 
 #![no_std]
 #![cfg_attr(
@@ -50,6 +51,7 @@
 pub mod analysis;
 pub mod budget;
 pub mod camera;
+pub mod denoise;
 pub mod error;
 pub mod film;
 pub mod geometry;

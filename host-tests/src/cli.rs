@@ -7,7 +7,9 @@ use micropt::{AdaptiveOptions, Budget, Options, Skip, Strategy};
 use micropt_host::bench;
 use micropt_host::image::{Image, OutputFormat};
 use micropt_host::metrics::{self, ZGroup, bias_z, compare};
-use micropt_host::render::{BudgetJob, MAX_THREADS, check_size, load_scene, render_budget};
+use micropt_host::render::{
+    BudgetJob, MAX_THREADS, RenderJob, check_size, load_scene, render_budget, render_denoised,
+};
 use micropt_host::smallpt::{self, SmallptJob, SmallptOptions, SmallptScene};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -204,6 +206,21 @@ struct RenderArgs {
     /// more noise where such an image is a fraction of a pixel).
     #[arg(long)]
     no_highlights: bool,
+    /// Denoise the image (every output format): render --spp samples in
+    /// every pixel (uniform sampling; needs --spp or its default, not
+    /// --budget-paths or --budget-ms) and filter them with the core's
+    /// denoiser (docs/denoise.md). Bit-identical for any --threads.
+    #[arg(long, conflicts_with_all = ["budget_paths", "budget_ms"])]
+    denoise: bool,
+    /// Write the denoiser's albedo guide to this PFM (OIDN's convention:
+    /// linear, in [0, 1]; the first surface behind mirrors and glass).
+    /// Renders as --denoise does.
+    #[arg(long, value_name = "PFM", conflicts_with_all = ["budget_paths", "budget_ms"])]
+    aov_albedo: Option<PathBuf>,
+    /// Write the denoiser's normal guide to this PFM (world space, in
+    /// [-1, 1], toward the camera ray). Renders as --denoise does.
+    #[arg(long, value_name = "PFM", conflicts_with_all = ["budget_paths", "budget_ms"])]
+    aov_normal: Option<PathBuf>,
     #[command(flatten)]
     frame: FrameArgs,
     /// Exposure multiplier applied before tone mapping (PNG, rgb565).
@@ -348,7 +365,7 @@ fn output_or_default(output: Option<PathBuf>, scene: &std::path::Path, suffix: &
 }
 
 fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
-    let output = output_or_default(a.output, &a.scene, ".png");
+    let output = output_or_default(a.output.clone(), &a.scene, ".png");
     // check the extension before spending time on the render
     OutputFormat::from_path(&output)?;
     let mut scene = load_scene(&a.scene)?;
@@ -363,6 +380,9 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
                 "--budget-paths {p} is more than {MAX_SPP} samples per pixel of a {width}x{height} image (at most {most})"
             ));
         }
+    }
+    if a.denoise || a.aov_albedo.is_some() || a.aov_normal.is_some() {
+        return render_denoised_to(&a, &scene, width, height, &output);
     }
     let budget = match (a.spp, a.budget_paths, a.budget_ms) {
         (_, Some(p), _) => Budget::Paths(p),
@@ -451,6 +471,69 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
                 .map_or(0, |r| r.options(job.options).highlight_pairs()),
             "threads": out.threads,
             "rays_per_second": s.rays() as f64 / out.seconds.max(1e-9),
+        });
+        say(v.to_string())?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `micropt render --denoise` (or with a guide output): uniform samples
+/// into moments, the core's denoiser, the outputs.
+fn render_denoised_to(
+    a: &RenderArgs,
+    scene: &micropt_host::render::HostScene,
+    width: u32,
+    height: u32,
+    output: &std::path::Path,
+) -> Result<ExitCode, String> {
+    for p in [&a.aov_albedo, &a.aov_normal].into_iter().flatten() {
+        if OutputFormat::from_path(p)? != OutputFormat::Pfm {
+            return Err(format!("{}: a guide is written as PFM (.pfm)", p.display()));
+        }
+    }
+    let job = RenderJob {
+        width,
+        height,
+        spp: a.spp.unwrap_or(64),
+        seed: a.frame.seed,
+        threads: a.frame.threads.map_or(0, |t| t as usize),
+        options: Options {
+            skip: a.no_skip.unwrap_or(Skip::ALL),
+            strategy: a.strategy,
+            highlights: !a.no_highlights,
+            ..Options::default()
+        },
+    };
+    let out = render_denoised(scene, &job, &|| {})?;
+    let image = if a.denoise { &out.image } else { &out.raw };
+    image.save(output, a.exposure)?;
+    if let Some(p) = &a.aov_albedo {
+        out.albedo.save(p, 1.0)?;
+    }
+    if let Some(p) = &a.aov_normal {
+        out.normal.save(p, 1.0)?;
+    }
+    if a.json {
+        let s = &out.stats;
+        let v = serde_json::json!({
+            "scene": a.scene.display().to_string(),
+            "output": output.display().to_string(),
+            "width": width,
+            "height": height,
+            "budget": format!("spp {}", job.spp),
+            "adaptive": false,
+            "estimator": "uniform (unbiased)",
+            "denoised": a.denoise,
+            "spp": job.spp,
+            "seed": a.frame.seed,
+            "seconds": out.seconds,
+            "denoise_seconds": out.denoise_seconds,
+            "paths": s.paths,
+            "rays": s.rays(),
+            "nonfinite": s.nonfinite,
+            "leaks": s.leaks,
+            "truncated": s.truncated,
+            "threads": out.threads,
         });
         say(v.to_string())?;
     }

@@ -41,6 +41,12 @@ impl Image {
         self.pixels[self.index(x, y)]
     }
 
+    /// Sets the pixel at (x, y).
+    pub fn set(&mut self, x: u32, y: u32, c: Color) {
+        let i = self.index(x, y);
+        self.pixels[i] = c;
+    }
+
     /// The indices in `pixels` of `tile`'s pixels, row-major in the tile.
     pub fn tile_indices(&self, tile: &Tile) -> impl Iterator<Item = usize> + use<> {
         let (width, tile) = (self.width as usize, *tile);

@@ -379,3 +379,107 @@ pub fn render_budget_timed<const S: usize, const P: usize, const M: usize>(
         threads,
     })
 }
+
+/// A denoised render ([`render_denoised`]).
+#[derive(Clone, Debug)]
+pub struct DenoisedOutput {
+    /// The denoised image.
+    pub image: Image,
+    /// The same samples' mean, unfiltered.
+    pub raw: Image,
+    /// Each pixel's guide albedo (OIDN's convention: in [0, 1]).
+    pub albedo: Image,
+    /// Each pixel's guide normal (world space, in [−1, 1]).
+    pub normal: Image,
+    /// Work counters of the render.
+    pub stats: Stats,
+    /// Wall-clock seconds of the render's samples.
+    pub seconds: f64,
+    /// Wall-clock seconds of the denoiser (guides included).
+    pub denoise_seconds: f64,
+    /// Threads used for the samples (the denoiser runs on one).
+    pub threads: usize,
+}
+
+/// Renders `job.spp` samples of every pixel into per-pixel moments (rows
+/// shared among threads; each pixel's sums in sample order, so the bits do
+/// not depend on the threads) and denoises them with the core's
+/// [`micropt::denoise`].
+pub fn render_denoised<const S: usize, const P: usize, const M: usize>(
+    scene: &Scene<S, P, M>,
+    job: &RenderJob,
+    on_row: &(dyn Fn() + Sync),
+) -> Result<DenoisedOutput, String> {
+    use micropt::denoise::{self, Candidate, Moments, Texel};
+    check_size(job.width, job.height)?;
+    if job.spp == 0 {
+        return Err("--spp must be at least 1".into());
+    }
+    let renderer = Renderer::new(scene, job.width, job.height)
+        .map_err(|e| format!("camera: {e:?}"))?
+        .seed(job.seed)
+        .options(job.options);
+    let (w, h) = (job.width as usize, job.height as usize);
+    let threads = resolve_threads(job.threads).min(h).max(1);
+    let rows: Vec<Mutex<Vec<Moments>>> = (0..h).map(|_| Mutex::new(Vec::new())).collect();
+    let stats = Mutex::new(Stats::default());
+    let start = Instant::now();
+    parallel_tiles(h, threads, &|y| {
+        let mut local = Stats::default();
+        let mut row = vec![Moments::ZERO; w];
+        for (x, m) in row.iter_mut().enumerate() {
+            let (x, y) = (x as u32, y as u32);
+            let pixel = renderer.pixel(x, y);
+            for k in 0..job.spp {
+                m.add(renderer.sample_parts_in(&pixel, x, y, k, &mut local));
+            }
+        }
+        *rows[y].lock().unwrap_or_else(|e| e.into_inner()) = row;
+        stats
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .merge(&local);
+        on_row();
+    });
+    let seconds = start.elapsed().as_secs_f64();
+    let moments: Vec<Moments> = rows
+        .into_iter()
+        .flat_map(|r| r.into_inner().unwrap_or_else(|e| e.into_inner()))
+        .collect();
+    let start = Instant::now();
+    let mut image = Image::new(job.width, job.height);
+    let mut ring = vec![Texel::kept(Color::ZERO); denoise::ring_len(w)];
+    let mut cand = vec![Candidate::ZERO; w];
+    denoise::denoise_moments(
+        &renderer,
+        &moments,
+        job.spp,
+        &mut ring,
+        &mut cand,
+        |y, x, c| image.set(x, y, c),
+    )
+    .map_err(|e| format!("denoise: {e}"))?;
+    let denoise_seconds = start.elapsed().as_secs_f64();
+    let mut raw = Image::new(job.width, job.height);
+    let mut albedo = Image::new(job.width, job.height);
+    let mut normal = Image::new(job.width, job.height);
+    for y in 0..job.height {
+        for x in 0..job.width {
+            let i = y as usize * w + x as usize;
+            raw.set(x, y, moments[i].mean(job.spp));
+            let g = denoise::guide(&renderer, x, y);
+            albedo.set(x, y, g.albedo);
+            normal.set(x, y, g.normal);
+        }
+    }
+    Ok(DenoisedOutput {
+        image,
+        raw,
+        albedo,
+        normal,
+        stats: stats.into_inner().unwrap_or_else(|e| e.into_inner()),
+        seconds,
+        denoise_seconds,
+        threads,
+    })
+}

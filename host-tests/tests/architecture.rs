@@ -16,7 +16,7 @@ const MAX_LINES: usize = 1000;
 
 /// The core's top-level modules, bottom up: each may import only those
 /// before it (the order of docs/architecture.md and the crate docs).
-const LAYERS: [&str; 17] = [
+const LAYERS: [&str; 18] = [
     "math",
     "sampler",
     "geometry",
@@ -34,6 +34,7 @@ const LAYERS: [&str; 17] = [
     "render",
     "budget",
     "multicore",
+    "denoise",
 ];
 
 fn src_dir() -> PathBuf {

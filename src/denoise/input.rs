@@ -1,0 +1,175 @@
+//! What the denoiser reads for one pixel: the moments of the pixel's
+//! samples ([`Moments`], accumulated as they are rendered) and the guide
+//! ([`Guide`], what the ray through the pixel's centre sees first behind
+//! mirrors and glass, recomputed when needed rather than stored).
+
+use crate::geometry::{Color, ObjectId, Ray, Vec3};
+use crate::integrator::PathSum;
+use crate::material::Material;
+#[cfg(any(feature = "mirror", feature = "glass"))]
+use crate::material::reflect;
+use crate::math;
+use crate::render::Renderer;
+
+/// A metal narrower than this (GGX α) shows sharp reflections whose
+/// radiance changes from pixel to pixel with the view: its pixels are
+/// left unfiltered.
+pub const SHARP_ALPHA: f32 = 0.1;
+
+/// Mirror and glass vertices a guide ray follows before it gives up (and
+/// leaves the pixel unfiltered).
+pub const GUIDE_DEPTH: u32 = 8;
+
+/// The running sums of one pixel's samples, split as the filter needs
+/// them: 28 bytes a pixel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Moments {
+    /// Sum of the samples' scattered part (`total − direct`), which the
+    /// filter smooths.
+    pub scattered: [f32; 3],
+    /// Sum of the samples' direct part ([`PathSum::direct`]), which it keeps.
+    pub direct: [f32; 3],
+    /// Sum of the squared luminance of the scattered parts: with the sum,
+    /// the samples' own variance (n − 1 degrees of freedom).
+    pub square: f32,
+}
+
+impl Moments {
+    /// No samples.
+    pub const ZERO: Self = Self {
+        scattered: [0.0; 3],
+        direct: [0.0; 3],
+        square: 0.0,
+    };
+
+    /// Adds one sample.
+    #[inline]
+    pub fn add(&mut self, s: PathSum) {
+        let sc = s.total - s.direct;
+        self.scattered[0] += sc.x;
+        self.scattered[1] += sc.y;
+        self.scattered[2] += sc.z;
+        self.direct[0] += s.direct.x;
+        self.direct[1] += s.direct.y;
+        self.direct[2] += s.direct.z;
+        let l = sc.luminance();
+        self.square += l * l;
+    }
+
+    /// The mean of `n` samples' totals (the raw image).
+    pub fn mean(&self, n: u32) -> Color {
+        let inv = 1.0 / n.max(1) as f32;
+        Color::new(
+            (self.scattered[0] + self.direct[0]) * inv,
+            (self.scattered[1] + self.direct[1]) * inv,
+            (self.scattered[2] + self.direct[2]) * inv,
+        )
+    }
+}
+
+/// What the filter may do with a pixel, from its guide.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GuideKind {
+    /// A non-delta surface that the filter smooths with its like.
+    Surface,
+    /// Left as rendered, and never a tap: the centre ray sees a light, the
+    /// background, a sharp metal, or nothing within [`GUIDE_DEPTH`].
+    Keep,
+}
+
+/// What the ray through a pixel's centre sees first behind mirrors and
+/// glass (the refracted ray at glass, where there is one): the guide of the
+/// filter's weights, and the albedo that it divides out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Guide {
+    /// Surface or keep.
+    pub kind: GuideKind,
+    /// The surface's albedo (a metal's tint) times the tints of the mirrors
+    /// before it, each channel in [0, 1] (OIDN's albedo convention).
+    pub albedo: Color,
+    /// The unit shading normal, toward the ray (OIDN's world-space normal).
+    pub normal: Vec3,
+    /// The hit point.
+    pub point: Vec3,
+    /// The objects along the way (the mirrors and glass, then the surface),
+    /// hashed: two pixels are filtered together only where it is equal.
+    pub key: u32,
+    /// How many mirror and glass vertices came before the surface.
+    pub deltas: u32,
+}
+
+impl Guide {
+    /// The guide of a pixel left as rendered.
+    pub const KEEP: Self = Self {
+        kind: GuideKind::Keep,
+        albedo: Color::ZERO,
+        normal: Vec3::ZERO,
+        point: Vec3::ZERO,
+        key: 0,
+        deltas: 0,
+    };
+}
+
+/// The guide of pixel (x, y): the centre ray (through the lens's centre,
+/// for a thin lens) followed through up to [`GUIDE_DEPTH`] mirror and glass
+/// vertices to its first non-delta surface. Deterministic: no random
+/// numbers.
+pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
+    let scene = renderer.scene();
+    let mut ray: Ray = renderer.camera().ray(x as f32 + 0.5, y as f32 + 0.5);
+    let mut from = ObjectId::NONE;
+    let mut tint = Color::ONE;
+    let mut key: u32 = 0x9e37_79b9;
+    for deltas in 0..=GUIDE_DEPTH {
+        let Some(hit) = scene.closest_hit(&ray, from) else {
+            return Guide::KEEP;
+        };
+        key = key.rotate_left(5) ^ (u32::from(hit.object.0) + 1);
+        key = key.wrapping_mul(0x0100_0193);
+        let Some(mat) = scene.materials.get(hit.material as usize) else {
+            return Guide::KEEP;
+        };
+        let n = if math::lt_zero(ray.dir.dot(hit.normal)) {
+            hit.normal
+        } else {
+            -hit.normal
+        };
+        let surface = |albedo: Color| Guide {
+            kind: GuideKind::Surface,
+            albedo: tint * albedo,
+            normal: n,
+            point: hit.point,
+            key,
+            deltas,
+        };
+        let dir = match mat {
+            Material::Diffuse(a) => return surface(*a),
+            #[cfg(feature = "checker")]
+            Material::Checker(c) => {
+                return surface(c.albedo_at(hit.point, hit.object.as_plane().map(|_| hit.normal)));
+            }
+            #[cfg(feature = "metal")]
+            Material::Metal(m) => {
+                if math::lt(m.alpha, SHARP_ALPHA) {
+                    return Guide::KEEP;
+                }
+                return surface(m.tint);
+            }
+            #[cfg(feature = "mirror")]
+            Material::Mirror(t) => {
+                tint *= *t;
+                reflect(ray.dir, hit.normal)
+            }
+            #[cfg(feature = "glass")]
+            Material::Glass(ior) => {
+                // the refraction where there is one (u just below 1 picks
+                // it unless the reflection carries everything)
+                crate::material::sample_dielectric(ray.dir, hit.normal, *ior, 0.999_999).0
+            }
+            _ => return Guide::KEEP,
+        };
+        ray = hit.spawn(dir);
+        from = hit.object;
+    }
+    Guide::KEEP
+}

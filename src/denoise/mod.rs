@@ -1,0 +1,423 @@
+//! A denoiser that fits on the board: cross-bilateral filters guided by
+//! what the pixel's centre ray sees, at two widths, with the filter
+//! strength chosen per pixel by Stein's unbiased risk estimate (SURE), "no
+//! filter" among the choices.
+//!
+//! What it does, pixel by pixel (all in f32, sums in a fixed order, so the
+//! same bits on every target and with any number of threads):
+//!
+//! 1. The input ([`Texel`]) is the mean of the pixel's samples split in
+//!    two ([`crate::integrator::PathSum`]): the *direct* part (emitters and
+//!    the background seen straight, in mirrors or through glass: lights,
+//!    their glints, the sky) is kept as rendered; the *scattered* part
+//!    (everything after a non-delta vertex) is filtered. Its variance comes
+//!    from the pixel's own samples ([`Moments`]).
+//! 2. Each candidate filter `k` averages the scattered radiance divided by
+//!    the guide's albedo over the taps within [`RADIUS`] that have the
+//!    same guide key (the same chain of mirrors and glass to the same
+//!    object) and a normal within [`NORMAL_COS`], with Gaussian spatial
+//!    weights of width [`WIDTHS`]`[k]`, and multiplies the albedo back: a
+//!    linear filter of the noisy image whose weights depend only on the
+//!    noise-free guides.
+//! 3. For such a filter, SURE is an unbiased estimate of its squared error
+//!    at the pixel: `(F_k − y)² + σ² (2 w_pp / W − 1)` (luminance; `σ²`
+//!    the variance of the pixel's mean, `w_pp / W` the pixel's own share of
+//!    its weights). "No filter" has SURE `σ²`. Each pixel takes the
+//!    candidate whose SURE, summed over the [`CHOICE_RADIUS`] pixels either
+//!    side in its row, is least, and "no filter" on a tie: the error the
+//!    choice admits is the error it estimates.
+//!
+//! Pixels whose guide says keep (lights, background, sharp metal), pixels
+//! with fewer than two samples, and pixels that saw a light directly while
+//! their centre sees a surface (a light's edge) are left as rendered and
+//! are nobody's tap.
+//!
+//! Memory: a ring of [`RING_ROWS`] rows of [`Texel`]s and one row of
+//! [`Candidate`]s ([`workspace_bytes`]); the rows are filled on demand, so
+//! a renderer can render a band at a time (the firmware), or read them
+//! from whole-frame [`Moments`] (the host).
+
+mod input;
+#[cfg(test)]
+mod tests;
+
+pub use input::{GUIDE_DEPTH, Guide, GuideKind, Moments, SHARP_ALPHA, guide};
+
+use crate::geometry::{Color, Vec3};
+use crate::math;
+
+/// Taps reach this many pixels either side, in x and in y.
+pub const RADIUS: usize = 4;
+/// Rows the ring holds: the row being filtered and [`RADIUS`] either side.
+pub const RING_ROWS: usize = 2 * RADIUS + 1;
+/// Gaussian widths (standard deviation, pixels) of the candidate filters;
+/// the narrow one uses the taps within 2 pixels only.
+pub const WIDTHS: [f32; 2] = [1.0, 3.0];
+/// The narrow filter's reach.
+const NARROW: usize = 2;
+/// A pixel's SURE is summed over this many pixels either side in its row
+/// before the choice.
+pub const CHOICE_RADIUS: usize = 4;
+/// Two pixels are filtered together only if their normals' cosine is at
+/// least this.
+pub const NORMAL_COS: f32 = 0.9;
+/// Albedo channels below this are divided as if they were this.
+const MIN_ALBEDO: f32 = 1.0 / 256.0;
+const SIDE: usize = 2 * RADIUS + 1;
+
+/// One pixel as the filter reads it: the means of its samples, their
+/// variance, and its guide.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Texel {
+    /// Mean scattered radiance (the part the filter smooths).
+    pub scattered: Color,
+    /// Mean direct radiance (kept as rendered).
+    pub direct: Color,
+    /// The scattered radiance divided by the albedo (what is averaged).
+    pub shade: Color,
+    /// The guide's albedo (what is multiplied back).
+    pub albedo: Color,
+    /// The guide's normal.
+    pub normal: Vec3,
+    /// Variance of the mean scattered luminance, from the samples.
+    pub variance: f32,
+    /// The guide's key ([`Guide::key`]).
+    pub key: u32,
+    /// Whether the pixel is filtered and is a tap.
+    pub filtered: bool,
+}
+
+impl Texel {
+    /// A pixel left as rendered, with this value.
+    pub const fn kept(c: Color) -> Self {
+        Self {
+            scattered: Color::ZERO,
+            direct: c,
+            shade: Color::ZERO,
+            albedo: Color::ZERO,
+            normal: Vec3::ZERO,
+            variance: 0.0,
+            key: 0,
+            filtered: false,
+        }
+    }
+
+    /// The texel of a pixel with `n` samples summed in `m`, and guide `g`.
+    pub fn new(m: &Moments, n: u32, g: &Guide) -> Self {
+        let nf = n.max(1) as f32;
+        let inv = 1.0 / nf;
+        let scattered = Color::new(m.scattered[0], m.scattered[1], m.scattered[2]) * inv;
+        let direct = Color::new(m.direct[0], m.direct[1], m.direct[2]) * inv;
+        let sum = Color::new(m.scattered[0], m.scattered[1], m.scattered[2]).luminance();
+        // (Σl² − (Σl)²/n) / (n (n − 1)): the variance of the mean
+        let spread = m.square - sum * sum * inv;
+        let variance = if n >= 2 {
+            math::max(spread, 0.0) / (nf * (nf - 1.0))
+        } else {
+            0.0
+        };
+        let lit_edge = g.deltas == 0 && math::gt_zero(direct.max_component());
+        let filtered = g.kind == GuideKind::Surface
+            && n >= 2
+            && !lit_edge
+            && math::is_finite(variance)
+            && scattered.is_finite();
+        if !filtered {
+            return Self::kept(scattered + direct);
+        }
+        let div = |s: f32, a: f32| s / math::max(a, MIN_ALBEDO);
+        Self {
+            scattered,
+            direct,
+            shade: Color::new(
+                div(scattered.x, g.albedo.x),
+                div(scattered.y, g.albedo.y),
+                div(scattered.z, g.albedo.z),
+            ),
+            albedo: g.albedo,
+            normal: g.normal,
+            variance,
+            key: g.key,
+            filtered: true,
+        }
+    }
+
+    /// The pixel unfiltered: its scattered and direct means.
+    pub fn raw(&self) -> Color {
+        self.scattered + self.direct
+    }
+}
+
+/// One pixel's candidates in the row being filtered.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    /// Each filter's scattered radiance.
+    pub filtered: [Color; WIDTHS.len()],
+    /// Each filter's SURE, and "no filter"'s last.
+    pub sure: [f32; WIDTHS.len() + 1],
+}
+
+impl Candidate {
+    /// Nothing yet.
+    pub const ZERO: Self = Self {
+        filtered: [Color::ZERO; WIDTHS.len()],
+        sure: [0.0; WIDTHS.len() + 1],
+    };
+}
+
+/// The texels a denoiser of a `width`-pixel row needs in its ring.
+pub const fn ring_len(width: usize) -> usize {
+    RING_ROWS * width
+}
+
+/// The bytes of a denoiser's workspace for a `width`-pixel row: the ring
+/// and the row of candidates.
+pub const fn workspace_bytes(width: usize) -> usize {
+    ring_len(width) * core::mem::size_of::<Texel>() + width * core::mem::size_of::<Candidate>()
+}
+
+/// Why a denoiser cannot run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DenoiseError {
+    /// The image has no pixels, or more than `u32` can count.
+    Size,
+    /// The workspace given is smaller than [`ring_len`] texels or `width`
+    /// candidates.
+    Workspace,
+}
+
+impl core::fmt::Display for DenoiseError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            DenoiseError::Size => f.write_str("the image has no pixels"),
+            DenoiseError::Workspace => f.write_str("the denoiser's workspace is too small"),
+        }
+    }
+}
+
+/// The streaming denoiser: a ring of rows over caller-owned memory.
+#[derive(Debug)]
+pub struct Denoiser<'w> {
+    width: usize,
+    height: usize,
+    ring: &'w mut [Texel],
+    row: &'w mut [Candidate],
+    /// Each width's Gaussian weight per tap offset (row-major, `SIDE²`).
+    weights: [[f32; SIDE * SIDE]; WIDTHS.len()],
+    /// Which choice the guards leave (tests turn them off one at a time).
+    guards: Guards,
+}
+
+/// The safeguards of the choice, each on by default; a test turns one off
+/// to show that a test fails without it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Guards {
+    /// "No filter" is a candidate.
+    pub no_filter: bool,
+    /// The divergence term of SURE (`2 σ² w_pp / W`) is counted.
+    pub divergence: bool,
+}
+
+impl Default for Guards {
+    fn default() -> Self {
+        Self {
+            no_filter: true,
+            divergence: true,
+        }
+    }
+}
+
+impl<'w> Denoiser<'w> {
+    /// A denoiser of a `width × height` image over `ring` (at least
+    /// [`ring_len`]`(width)` texels) and `row` (at least `width`
+    /// candidates).
+    pub fn new(
+        width: u32,
+        height: u32,
+        ring: &'w mut [Texel],
+        row: &'w mut [Candidate],
+    ) -> Result<Self, DenoiseError> {
+        let (w, h) = (width as usize, height as usize);
+        if w == 0 || h == 0 {
+            return Err(DenoiseError::Size);
+        }
+        let Some(need) = w.checked_mul(RING_ROWS) else {
+            return Err(DenoiseError::Size);
+        };
+        if ring.len() < need || row.len() < w {
+            return Err(DenoiseError::Workspace);
+        }
+        let mut weights = [[0.0; SIDE * SIDE]; WIDTHS.len()];
+        for (k, table) in weights.iter_mut().enumerate() {
+            let reach = if k == 0 { NARROW } else { RADIUS };
+            // exp(−d²/2σ²) = 2^(−d² log2(e) / 2σ²)
+            let c = -core::f32::consts::LOG2_E / (2.0 * WIDTHS[k] * WIDTHS[k]);
+            for (i, wt) in table.iter_mut().enumerate() {
+                let dx = (i % SIDE).abs_diff(RADIUS);
+                let dy = (i / SIDE).abs_diff(RADIUS);
+                *wt = if dx <= reach && dy <= reach {
+                    math::exp2(c * (dx * dx + dy * dy) as f32)
+                } else {
+                    0.0
+                };
+            }
+        }
+        Ok(Self {
+            width: w,
+            height: h,
+            ring: &mut ring[..need],
+            row: &mut row[..w],
+            weights,
+            guards: Guards::default(),
+        })
+    }
+
+    /// The same denoiser with some safeguards off (for tests that show
+    /// what each one guards).
+    pub fn with_guards(mut self, guards: Guards) -> Self {
+        self.guards = guards;
+        self
+    }
+
+    /// Denoises the image row by row. `fill(y, row)` writes row `y`'s
+    /// texels (called once per row, in order, at most [`RADIUS`] rows ahead
+    /// of the row being filtered); `emit(y, x, colour)` receives each
+    /// output pixel, row by row.
+    pub fn run(
+        &mut self,
+        mut fill: impl FnMut(u32, &mut [Texel]),
+        mut emit: impl FnMut(u32, u32, Color),
+    ) {
+        let (w, h) = (self.width, self.height);
+        let mut filled = 0;
+        for y in 0..h {
+            while filled < h && filled <= y + RADIUS {
+                let slot = (filled % RING_ROWS) * w;
+                fill(filled as u32, &mut self.ring[slot..slot + w]);
+                filled += 1;
+            }
+            self.candidates(y);
+            self.choose(y, &mut emit);
+        }
+    }
+
+    /// The candidates and their SURE for every pixel of row `y`.
+    fn candidates(&mut self, y: usize) {
+        let (w, h) = (self.width, self.height);
+        let y0 = y.saturating_sub(RADIUS);
+        let y1 = (y + RADIUS).min(h - 1);
+        for x in 0..w {
+            let p = self.ring[(y % RING_ROWS) * w + x];
+            let cand = &mut self.row[x];
+            if !p.filtered {
+                *cand = Candidate::ZERO;
+                continue;
+            }
+            let x0 = x.saturating_sub(RADIUS);
+            let x1 = (x + RADIUS).min(w - 1);
+            let mut sum = [Color::ZERO; WIDTHS.len()];
+            let mut wsum = [0.0f32; WIDTHS.len()];
+            for qy in y0..=y1 {
+                let base = (qy % RING_ROWS) * w;
+                let trow = (qy + RADIUS - y) * SIDE;
+                for qx in x0..=x1 {
+                    let q = &self.ring[base + qx];
+                    if !q.filtered || q.key != p.key || math::lt(p.normal.dot(q.normal), NORMAL_COS)
+                    {
+                        continue;
+                    }
+                    let t = trow + qx + RADIUS - x;
+                    for k in 0..WIDTHS.len() {
+                        let wt = self.weights[k][t];
+                        sum[k] += q.shade * wt;
+                        wsum[k] += wt;
+                    }
+                }
+            }
+            let y_lum = p.scattered.luminance();
+            let centre = self.weights[0][RADIUS * SIDE + RADIUS];
+            for k in 0..WIDTHS.len() {
+                // the pixel itself is always a tap: wsum[k] ≥ its weight 1
+                let inv = 1.0 / wsum[k];
+                let f = p.albedo * (sum[k] * inv);
+                cand.filtered[k] = f;
+                let d = f.luminance() - y_lum;
+                let div = if self.guards.divergence {
+                    2.0 * centre * inv - 1.0
+                } else {
+                    -1.0
+                };
+                cand.sure[k] = d * d + p.variance * div;
+            }
+            cand.sure[WIDTHS.len()] = p.variance;
+        }
+    }
+
+    /// The choice for every pixel of row `y`, emitted.
+    fn choose(&mut self, y: usize, emit: &mut impl FnMut(u32, u32, Color)) {
+        let w = self.width;
+        let base = (y % RING_ROWS) * w;
+        for x in 0..w {
+            let p = self.ring[base + x];
+            if !p.filtered {
+                emit(y as u32, x as u32, p.raw());
+                continue;
+            }
+            let mut total = [0.0f32; WIDTHS.len() + 1];
+            for qx in x.saturating_sub(CHOICE_RADIUS)..=(x + CHOICE_RADIUS).min(w - 1) {
+                if self.ring[base + qx].filtered {
+                    for (t, s) in total.iter_mut().zip(self.row[qx].sure.iter()) {
+                        *t += *s;
+                    }
+                }
+            }
+            let mut best = WIDTHS.len();
+            let mut best_sure = if self.guards.no_filter {
+                total[WIDTHS.len()]
+            } else {
+                f32::INFINITY
+            };
+            for (k, t) in total.iter().take(WIDTHS.len()).enumerate() {
+                if math::lt(*t, best_sure) {
+                    best = k;
+                    best_sure = *t;
+                }
+            }
+            let out = if best == WIDTHS.len() {
+                p.scattered
+            } else {
+                self.row[x].filtered[best]
+            };
+            emit(y as u32, x as u32, out + p.direct);
+        }
+    }
+}
+
+/// Denoises a whole frame whose samples are summed in `moments` (row-major,
+/// `n` samples a pixel), its guides computed by [`guide`] row by row:
+/// `emit(y, x, colour)` receives each output pixel. The workspace is as
+/// for [`Denoiser::new`].
+pub fn denoise_moments(
+    renderer: &crate::render::Renderer<'_>,
+    moments: &[Moments],
+    n: u32,
+    ring: &mut [Texel],
+    row: &mut [Candidate],
+    emit: impl FnMut(u32, u32, Color),
+) -> Result<(), DenoiseError> {
+    let (w, h) = (renderer.width(), renderer.height());
+    if moments.len() < (w as usize).saturating_mul(h as usize) {
+        return Err(DenoiseError::Size);
+    }
+    let mut d = Denoiser::new(w, h, ring, row)?;
+    d.run(
+        |y, texels| {
+            let start = y as usize * w as usize;
+            for (x, (t, m)) in texels.iter_mut().zip(&moments[start..]).enumerate() {
+                *t = Texel::new(m, n, &guide(renderer, x as u32, y));
+            }
+        },
+        emit,
+    );
+    Ok(())
+}
