@@ -449,7 +449,7 @@ pub fn render_denoised<const S: usize, const P: usize, const M: usize>(
     let start = Instant::now();
     let mut image = Image::new(job.width, job.height);
     let mut ring = vec![Texel::kept(Color::ZERO); denoise::ring_len(w)];
-    let mut cand = vec![Candidate::ZERO; w];
+    let mut cand = vec![Candidate::ZERO; denoise::candidates_len(w)];
     denoise::denoise_moments(
         &renderer,
         &moments,

@@ -23,17 +23,17 @@
 //!    at the pixel: `(F_k − y)² + σ² (2 w_pp / W − 1)` (luminance; `σ²`
 //!    the variance of the pixel's mean, `w_pp / W` the pixel's own share of
 //!    its weights). "No filter" has SURE `σ²`. Each pixel takes the
-//!    candidate whose SURE, summed over the [`CHOICE_RADIUS`] pixels either
-//!    side in its row, is least, and "no filter" on a tie: the error the
-//!    choice admits is the error it estimates.
+//!    candidate whose SURE, summed over the pixels within
+//!    [`CHOICE_RADIUS`] (a 9 × 9 window: one pixel's SURE is too noisy to
+//!    choose by), is least, and "no filter" on a tie.
 //!
 //! Pixels whose guide says keep (lights, background, sharp metal), pixels
 //! with fewer than two samples, and pixels that saw a light directly while
 //! their centre sees a surface (a light's edge) are left as rendered and
 //! are nobody's tap.
 //!
-//! Memory: a ring of [`RING_ROWS`] rows of [`Texel`]s and one row of
-//! [`Candidate`]s ([`workspace_bytes`]); the rows are filled on demand, so
+//! Memory: a ring of [`RING_ROWS`] rows of [`Texel`]s and one of
+//! [`CHOICE_ROWS`] rows of [`Candidate`]s ([`workspace_bytes`]); the rows are filled on demand, so
 //! a renderer can render a band at a time (the firmware), or read them
 //! from whole-frame [`Moments`] (the host).
 
@@ -55,8 +55,8 @@ pub const RING_ROWS: usize = 2 * RADIUS + 1;
 pub const WIDTHS: [f32; 2] = [1.0, 3.0];
 /// The narrow filter's reach.
 const NARROW: usize = 2;
-/// A pixel's SURE is summed over this many pixels either side in its row
-/// before the choice.
+/// A pixel's SURE is summed over this many pixels either side, in x and
+/// in y, before the choice.
 pub const CHOICE_RADIUS: usize = 4;
 /// Two pixels are filtered together only if their normals' cosine is at
 /// least this.
@@ -148,13 +148,21 @@ impl Texel {
     }
 }
 
-/// One pixel's candidates in the row being filtered.
+/// One pixel's candidates, kept until its choice: what each filter gives,
+/// each one's SURE, and what the pixel is without a filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Candidate {
     /// Each filter's scattered radiance.
     pub filtered: [Color; WIDTHS.len()],
-    /// Each filter's SURE, and "no filter"'s last.
+    /// Each filter's SURE, and "no filter"'s last (0 for a pixel left as
+    /// rendered, which no choice counts).
     pub sure: [f32; WIDTHS.len() + 1],
+    /// The pixel's own scattered mean.
+    pub scattered: Color,
+    /// The pixel's direct mean (added to whatever is chosen).
+    pub direct: Color,
+    /// Whether the pixel is filtered (else it is emitted as rendered).
+    pub filtered_pixel: bool,
 }
 
 impl Candidate {
@@ -162,18 +170,31 @@ impl Candidate {
     pub const ZERO: Self = Self {
         filtered: [Color::ZERO; WIDTHS.len()],
         sure: [0.0; WIDTHS.len() + 1],
+        scattered: Color::ZERO,
+        direct: Color::ZERO,
+        filtered_pixel: false,
     };
 }
+
+/// Rows of candidates a denoiser keeps: the row being chosen and
+/// [`CHOICE_RADIUS`] either side.
+pub const CHOICE_ROWS: usize = 2 * CHOICE_RADIUS + 1;
 
 /// The texels a denoiser of a `width`-pixel row needs in its ring.
 pub const fn ring_len(width: usize) -> usize {
     RING_ROWS * width
 }
 
+/// The candidates a denoiser of a `width`-pixel row needs.
+pub const fn candidates_len(width: usize) -> usize {
+    CHOICE_ROWS * width
+}
+
 /// The bytes of a denoiser's workspace for a `width`-pixel row: the ring
-/// and the row of candidates.
+/// of texels and the ring of candidates.
 pub const fn workspace_bytes(width: usize) -> usize {
-    ring_len(width) * core::mem::size_of::<Texel>() + width * core::mem::size_of::<Candidate>()
+    ring_len(width) * core::mem::size_of::<Texel>()
+        + candidates_len(width) * core::mem::size_of::<Candidate>()
 }
 
 /// Why a denoiser cannot run.
@@ -181,8 +202,8 @@ pub const fn workspace_bytes(width: usize) -> usize {
 pub enum DenoiseError {
     /// The image has no pixels, or more than `u32` can count.
     Size,
-    /// The workspace given is smaller than [`ring_len`] texels or `width`
-    /// candidates.
+    /// The workspace given is smaller than [`ring_len`] texels or
+    /// [`candidates_len`] candidates.
     Workspace,
 }
 
@@ -229,8 +250,8 @@ impl Default for Guards {
 
 impl<'w> Denoiser<'w> {
     /// A denoiser of a `width × height` image over `ring` (at least
-    /// [`ring_len`]`(width)` texels) and `row` (at least `width`
-    /// candidates).
+    /// [`ring_len`]`(width)` texels) and `row` (at least
+    /// [`candidates_len`]`(width)` candidates).
     pub fn new(
         width: u32,
         height: u32,
@@ -244,7 +265,7 @@ impl<'w> Denoiser<'w> {
         let Some(need) = w.checked_mul(RING_ROWS) else {
             return Err(DenoiseError::Size);
         };
-        if ring.len() < need || row.len() < w {
+        if ring.len() < need || row.len() < w.saturating_mul(CHOICE_ROWS) {
             return Err(DenoiseError::Workspace);
         }
         let mut weights = [[0.0; SIDE * SIDE]; WIDTHS.len()];
@@ -266,7 +287,7 @@ impl<'w> Denoiser<'w> {
             width: w,
             height: h,
             ring: &mut ring[..need],
-            row: &mut row[..w],
+            row: &mut row[..w * CHOICE_ROWS],
             weights,
             guards: Guards::default(),
         })
@@ -280,9 +301,9 @@ impl<'w> Denoiser<'w> {
     }
 
     /// Denoises the image row by row. `fill(y, row)` writes row `y`'s
-    /// texels (called once per row, in order, at most [`RADIUS`] rows ahead
-    /// of the row being filtered); `emit(y, x, colour)` receives each
-    /// output pixel, row by row.
+    /// texels (called once per row, in order, [`RADIUS`] rows ahead of the
+    /// row whose candidates are computed); `emit(y, x, colour)` receives
+    /// each output pixel, row by row ([`CHOICE_RADIUS`] rows behind).
     pub fn run(
         &mut self,
         mut fill: impl FnMut(u32, &mut [Texel]),
@@ -297,6 +318,11 @@ impl<'w> Denoiser<'w> {
                 filled += 1;
             }
             self.candidates(y);
+            if y >= CHOICE_RADIUS {
+                self.choose(y - CHOICE_RADIUS, &mut emit);
+            }
+        }
+        for y in h.saturating_sub(CHOICE_RADIUS)..h {
             self.choose(y, &mut emit);
         }
     }
@@ -308,11 +334,17 @@ impl<'w> Denoiser<'w> {
         let y1 = (y + RADIUS).min(h - 1);
         for x in 0..w {
             let p = self.ring[(y % RING_ROWS) * w + x];
-            let cand = &mut self.row[x];
+            let cand = &mut self.row[(y % CHOICE_ROWS) * w + x];
             if !p.filtered {
-                *cand = Candidate::ZERO;
+                *cand = Candidate {
+                    direct: p.raw(),
+                    ..Candidate::ZERO
+                };
                 continue;
             }
+            cand.scattered = p.scattered;
+            cand.direct = p.direct;
+            cand.filtered_pixel = true;
             let x0 = x.saturating_sub(RADIUS);
             let x1 = (x + RADIUS).min(w - 1);
             let mut sum = [Color::ZERO; WIDTHS.len()];
@@ -353,20 +385,27 @@ impl<'w> Denoiser<'w> {
         }
     }
 
-    /// The choice for every pixel of row `y`, emitted.
+    /// The choice for every pixel of row `y`, emitted: the candidate whose
+    /// SURE summed over the pixels within [`CHOICE_RADIUS`] (in x and y)
+    /// is least, "no filter" on a tie.
     fn choose(&mut self, y: usize, emit: &mut impl FnMut(u32, u32, Color)) {
-        let w = self.width;
-        let base = (y % RING_ROWS) * w;
+        let (w, h) = (self.width, self.height);
+        let base = (y % CHOICE_ROWS) * w;
+        let y0 = y.saturating_sub(CHOICE_RADIUS);
+        let y1 = (y + CHOICE_RADIUS).min(h - 1);
         for x in 0..w {
-            let p = self.ring[base + x];
-            if !p.filtered {
-                emit(y as u32, x as u32, p.raw());
+            let p = self.row[base + x];
+            if !p.filtered_pixel {
+                emit(y as u32, x as u32, p.direct);
                 continue;
             }
             let mut total = [0.0f32; WIDTHS.len() + 1];
-            for qx in x.saturating_sub(CHOICE_RADIUS)..=(x + CHOICE_RADIUS).min(w - 1) {
-                if self.ring[base + qx].filtered {
-                    for (t, s) in total.iter_mut().zip(self.row[qx].sure.iter()) {
+            let x0 = x.saturating_sub(CHOICE_RADIUS);
+            let x1 = (x + CHOICE_RADIUS).min(w - 1);
+            for qy in y0..=y1 {
+                let row = &self.row[(qy % CHOICE_ROWS) * w..][..w];
+                for q in &row[x0..=x1] {
+                    for (t, s) in total.iter_mut().zip(q.sure.iter()) {
                         *t += *s;
                     }
                 }
@@ -386,7 +425,7 @@ impl<'w> Denoiser<'w> {
             let out = if best == WIDTHS.len() {
                 p.scattered
             } else {
-                self.row[x].filtered[best]
+                p.filtered[best]
             };
             emit(y as u32, x as u32, out + p.direct);
         }
