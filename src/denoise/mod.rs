@@ -61,6 +61,14 @@ pub const CHOICE_RADIUS: usize = 4;
 /// Two pixels are filtered together only if their normals' cosine is at
 /// least this.
 pub const NORMAL_COS: f32 = 0.9;
+/// A filter may move a pixel by at most this many standard errors of the
+/// pixel's own mean: the window's SURE speaks for the window, and one
+/// pixel of huge variance in it (a firefly) would otherwise choose for its
+/// neighbours the filter that spreads it over them.
+pub const CONSISTENCY: f32 = 6.0;
+/// The choice weighs each pixel's SURE by `1 / (b² + RELATIVE_FLOOR)`, `b`
+/// its brightness (the relative MSE's floor).
+const RELATIVE_FLOOR: f32 = 0.01;
 /// Albedo channels below this are divided as if they were this.
 const MIN_ALBEDO: f32 = 1.0 / 256.0;
 const SIDE: usize = 2 * RADIUS + 1;
@@ -161,6 +169,8 @@ pub struct Candidate {
     pub scattered: Color,
     /// The pixel's direct mean (added to whatever is chosen).
     pub direct: Color,
+    /// The variance of the pixel's scattered mean (luminance).
+    pub variance: f32,
     /// Whether the pixel is filtered (else it is emitted as rendered).
     pub filtered_pixel: bool,
 }
@@ -172,6 +182,7 @@ impl Candidate {
         sure: [0.0; WIDTHS.len() + 1],
         scattered: Color::ZERO,
         direct: Color::ZERO,
+        variance: 0.0,
         filtered_pixel: false,
     };
 }
@@ -233,10 +244,14 @@ pub struct Denoiser<'w> {
 /// to show that a test fails without it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Guards {
-    /// "No filter" is a candidate.
+    /// "No filter" is a candidate (without it, a pixel no filter suits
+    /// gets the narrowest).
     pub no_filter: bool,
     /// The divergence term of SURE (`2 σ² w_pp / W`) is counted.
     pub divergence: bool,
+    /// A filter is chosen only where it moves the pixel by at most
+    /// [`CONSISTENCY`] standard errors of the pixel's own mean.
+    pub consistency: bool,
 }
 
 impl Default for Guards {
@@ -244,6 +259,7 @@ impl Default for Guards {
         Self {
             no_filter: true,
             divergence: true,
+            consistency: true,
         }
     }
 }
@@ -344,6 +360,7 @@ impl<'w> Denoiser<'w> {
             }
             cand.scattered = p.scattered;
             cand.direct = p.direct;
+            cand.variance = p.variance;
             cand.filtered_pixel = true;
             let x0 = x.saturating_sub(RADIUS);
             let x1 = (x + RADIUS).min(w - 1);
@@ -382,6 +399,14 @@ impl<'w> Denoiser<'w> {
                 cand.sure[k] = d * d + p.variance * div;
             }
             cand.sure[WIDTHS.len()] = p.variance;
+            // each pixel's estimates relative to its brightness (the widest
+            // filter's, the least noisy guess of it), so that a dark pixel's
+            // choice is not made by its bright neighbours' errors
+            let b = cand.filtered[WIDTHS.len() - 1].luminance();
+            let rel = 1.0 / (b * b + RELATIVE_FLOOR);
+            for s in cand.sure.iter_mut() {
+                *s *= rel;
+            }
         }
     }
 
@@ -410,14 +435,22 @@ impl<'w> Denoiser<'w> {
                     }
                 }
             }
-            let mut best = WIDTHS.len();
-            let mut best_sure = if self.guards.no_filter {
-                total[WIDTHS.len()]
+            // without "no filter" among the choices, the narrowest filter
+            // is what is left
+            let (mut best, mut best_sure) = if self.guards.no_filter {
+                (WIDTHS.len(), total[WIDTHS.len()])
             } else {
-                f32::INFINITY
+                (0, f32::INFINITY)
             };
+            let y_lum = p.scattered.luminance();
             for (k, t) in total.iter().take(WIDTHS.len()).enumerate() {
-                if math::lt(*t, best_sure) {
+                // the consistency guard: a filter may move the pixel by at
+                // most CONSISTENCY of its own standard errors (else it is
+                // biased here, whatever its window's SURE says)
+                let d = p.filtered[k].luminance() - y_lum;
+                let consistent =
+                    !self.guards.consistency || d * d <= CONSISTENCY * CONSISTENCY * p.variance;
+                if consistent && math::lt(*t, best_sure) {
                     best = k;
                     best_sure = *t;
                 }
