@@ -431,7 +431,10 @@ pub fn render_denoised<const S: usize, const P: usize, const M: usize>(
             let (x, y) = (x as u32, y as u32);
             let pixel = renderer.pixel(x, y);
             for k in 0..job.spp {
-                m.add(renderer.sample_parts_in(&pixel, x, y, k, &mut local));
+                m.add(
+                    renderer.sample_parts_in(&pixel, x, y, k, &mut local),
+                    k < job.spp / 2,
+                );
             }
         }
         *rows[y].lock().unwrap_or_else(|e| e.into_inner()) = row;

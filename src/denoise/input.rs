@@ -21,7 +21,7 @@ pub const SHARP_ALPHA: f32 = 0.1;
 pub const GUIDE_DEPTH: u32 = 8;
 
 /// The running sums of one pixel's samples, split as the filter needs
-/// them: 28 bytes a pixel.
+/// them: 32 bytes a pixel.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Moments {
     /// Sum of the samples' scattered part (`total − direct`), which the
@@ -32,6 +32,10 @@ pub struct Moments {
     /// Sum of the squared luminance of the scattered parts: with the sum,
     /// the samples' own variance (n − 1 degrees of freedom).
     pub square: f32,
+    /// Sum of the scattered parts' luminance over the first half of the
+    /// samples (index below `n / 2`): the two halves' difference estimates
+    /// the variance of the mean as the samples are stratified.
+    pub half: f32,
 }
 
 impl Moments {
@@ -40,11 +44,13 @@ impl Moments {
         scattered: [0.0; 3],
         direct: [0.0; 3],
         square: 0.0,
+        half: 0.0,
     };
 
-    /// Adds one sample.
+    /// Adds one sample; `first_half`: its index is below `n / 2` of the
+    /// pixel's `n` samples.
     #[inline]
-    pub fn add(&mut self, s: PathSum) {
+    pub fn add(&mut self, s: PathSum, first_half: bool) {
         let sc = s.total - s.direct;
         self.scattered[0] += sc.x;
         self.scattered[1] += sc.y;
@@ -54,6 +60,9 @@ impl Moments {
         self.direct[2] += s.direct.z;
         let l = sc.luminance();
         self.square += l * l;
+        if first_half {
+            self.half += l;
+        }
     }
 
     /// The mean of `n` samples' totals (the raw image).

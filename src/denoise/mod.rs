@@ -87,8 +87,13 @@ pub struct Texel {
     pub albedo: Color,
     /// The guide's normal.
     pub normal: Vec3,
-    /// Variance of the mean scattered luminance, from the samples.
+    /// Variance of the mean scattered luminance, from the difference of
+    /// the two halves of the samples (SURE's `σ²`).
     pub variance: f32,
+    /// The same from the samples' spread as if they were independent (an
+    /// upper bound, with n − 1 degrees of freedom: the consistency guard's
+    /// scale).
+    pub spread: f32,
     /// The guide's key ([`Guide::key`]).
     pub key: u32,
     /// Whether the pixel is filtered and is a tap.
@@ -105,6 +110,7 @@ impl Texel {
             albedo: Color::ZERO,
             normal: Vec3::ZERO,
             variance: 0.0,
+            spread: 0.0,
             key: 0,
             filtered: false,
         }
@@ -117,18 +123,31 @@ impl Texel {
         let scattered = Color::new(m.scattered[0], m.scattered[1], m.scattered[2]) * inv;
         let direct = Color::new(m.direct[0], m.direct[1], m.direct[2]) * inv;
         let sum = Color::new(m.scattered[0], m.scattered[1], m.scattered[2]).luminance();
-        // (Σl² − (Σl)²/n) / (n (n − 1)): the variance of the mean
-        let spread = m.square - sum * sum * inv;
-        let variance = if n >= 2 {
-            math::max(spread, 0.0) / (nf * (nf - 1.0))
+        // (Σl² − (Σl)²/n) / (n (n − 1)): the variance of the mean of n
+        // independent samples
+        let iid = if n >= 2 {
+            math::max(m.square - sum * sum * inv, 0.0) / (nf * (nf - 1.0))
         } else {
             0.0
+        };
+        // the samples are stratified (a scrambled Sobol net), and the iid
+        // formula overestimates their mean's variance (3-5x where a pixel
+        // straddles a smooth gradient). Each half of an even count is a net
+        // of its own: ((A − B) / 2)² of the halves' means A and B estimates
+        // the variance of (A + B) / 2 as they are sampled (one degree of
+        // freedom; SURE sums it over a window)
+        let variance = if n >= 2 && n % 2 == 0 {
+            let d = (2.0 * m.half - sum) * inv;
+            d * d
+        } else {
+            iid
         };
         let lit_edge = g.deltas == 0 && math::gt_zero(direct.max_component());
         let filtered = g.kind == GuideKind::Surface
             && n >= 2
             && !lit_edge
             && math::is_finite(variance)
+            && math::is_finite(iid)
             && scattered.is_finite();
         if !filtered {
             return Self::kept(scattered + direct);
@@ -145,6 +164,7 @@ impl Texel {
             albedo: g.albedo,
             normal: g.normal,
             variance,
+            spread: iid,
             key: g.key,
             filtered: true,
         }
@@ -169,7 +189,8 @@ pub struct Candidate {
     pub scattered: Color,
     /// The pixel's direct mean (added to whatever is chosen).
     pub direct: Color,
-    /// The variance of the pixel's scattered mean (luminance).
+    /// The variance of the pixel's scattered mean (luminance) as if its
+    /// samples were independent (the consistency guard's scale).
     pub variance: f32,
     /// Whether the pixel is filtered (else it is emitted as rendered).
     pub filtered_pixel: bool,
@@ -360,7 +381,7 @@ impl<'w> Denoiser<'w> {
             }
             cand.scattered = p.scattered;
             cand.direct = p.direct;
-            cand.variance = p.variance;
+            cand.variance = p.spread;
             cand.filtered_pixel = true;
             let x0 = x.saturating_sub(RADIUS);
             let x1 = (x + RADIUS).min(w - 1);

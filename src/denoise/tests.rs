@@ -26,6 +26,8 @@ fn wall(a: Color, s: Color, v: f32, key: u32) -> Texel {
         scattered: [s.x * nf, s.y * nf, s.z * nf],
         direct: [0.0; 3],
         square: nf * l * l + v * nf * (nf - 1.0),
+        // halves whose difference gives v: ((2h − Σ)/n)² = v
+        half: 0.5 * (nf * l + nf * math::sqrt(v)),
     };
     Texel::new(&m, n, &g)
 }
@@ -223,6 +225,7 @@ fn a_light_seen_directly_is_kept_and_the_rest_filtered() {
         scattered: [4.0; 3],
         direct: [16.0, 0.0, 0.0],
         square: 4.0,
+        half: 2.0,
     };
     assert!(!Texel::new(&m, 16, &g(0)).filtered);
     let t = Texel::new(&m, 16, &g(1));
