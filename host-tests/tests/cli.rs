@@ -615,3 +615,76 @@ fn huge_inputs_are_refused_with_the_limit_in_the_message() {
     ]);
     assert_eq!(v["samples"], 1 << 20);
 }
+
+#[test]
+fn denoise_writes_every_format_denoised_and_the_guides() {
+    let sc = scene("cornell.scene");
+    let sc = sc.to_str().unwrap();
+    let (pfm, png, rgb, alb, nrm) = (
+        tmp("dn.pfm"),
+        tmp("dn.png"),
+        tmp("dn.rgb565"),
+        tmp("albedo.pfm"),
+        tmp("normal.pfm"),
+    );
+    let common = ["render", sc, "--spp", "4", "--size", "24x16", "--denoise"];
+    for (o, extra) in [
+        (
+            &pfm,
+            vec![
+                "--aov-albedo",
+                alb.to_str().unwrap(),
+                "--aov-normal",
+                nrm.to_str().unwrap(),
+            ],
+        ),
+        (&png, vec![]),
+        (&rgb, vec![]),
+    ] {
+        let mut args = common.to_vec();
+        args.extend(["-o", o.to_str().unwrap()]);
+        args.extend(extra);
+        let out = run(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    // the three outputs are one image: the PNG and the .rgb565 are the
+    // denoised PFM's tone mapping
+    let img = micropt_host::Image::load_pfm(&pfm).unwrap();
+    assert_eq!(std::fs::read(&rgb).unwrap(), img.to_rgb565_be(1.0));
+    let mut png_bytes = Vec::new();
+    img.write_png(&mut png_bytes, 1.0).unwrap();
+    assert_eq!(std::fs::read(&png).unwrap(), png_bytes);
+    // OIDN's conventions: albedo in [0, 1], normals in [-1, 1] and unit
+    // length where the centre ray finds a surface
+    let a = micropt_host::Image::load_pfm(&alb).unwrap();
+    assert!(
+        a.pixels
+            .iter()
+            .all(|c| [c.x, c.y, c.z].iter().all(|v| (0.0..=1.0).contains(v)))
+    );
+    let n = micropt_host::Image::load_pfm(&nrm).unwrap();
+    for c in &n.pixels {
+        let l = c.x * c.x + c.y * c.y + c.z * c.z;
+        assert!(l == 0.0 || (l - 1.0).abs() < 1e-4, "normal {c:?}");
+    }
+    // a guide is PFM only, and --denoise takes a sample budget only
+    assert_clean_error(
+        &run(&[
+            "render",
+            sc,
+            "--spp",
+            "4",
+            "--aov-albedo",
+            tmp("a.png").to_str().unwrap(),
+        ]),
+        "a guide is written as PFM",
+    );
+    assert_clean_error(
+        &run(&["render", sc, "--denoise", "--budget-ms", "10"]),
+        "cannot be used with",
+    );
+}

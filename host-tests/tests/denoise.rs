@@ -1,0 +1,84 @@
+//! The denoiser on the shipped scenes: the same bits with any number of
+//! threads, and a whole-image MSE never above the raw image's (against the
+//! independent references), at 16 and at 1024 samples per pixel.
+
+use micropt::Options;
+use micropt_host::Image;
+use micropt_host::reference::{Reference, names, scenes_dir};
+use micropt_host::render::{DenoisedOutput, RenderJob, load_scene, render_denoised};
+
+fn denoised(name: &str, w: u32, h: u32, spp: u32, seed: u64, threads: usize) -> DenoisedOutput {
+    let scene = load_scene(&scenes_dir().join(format!("{name}.scene"))).unwrap();
+    let job = RenderJob {
+        width: w,
+        height: h,
+        spp,
+        seed,
+        threads,
+        options: Options::default(),
+    };
+    render_denoised(&scene, &job, &|| {}).unwrap()
+}
+
+fn mse(a: &Image, b: &Image) -> f64 {
+    let mut s = 0.0;
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        for (x, y) in [(p.x, q.x), (p.y, q.y), (p.z, q.z)] {
+            let d = f64::from(x) - f64::from(y);
+            s += d * d;
+        }
+    }
+    s / (3 * a.pixels.len()) as f64
+}
+
+#[test]
+fn the_denoised_image_does_not_depend_on_the_threads() {
+    for name in ["cornell", "gloss", "many"] {
+        let one = denoised(name, 40, 30, 8, 3, 1);
+        let two = denoised(name, 40, 30, 8, 3, 2);
+        let bits = |i: &Image| -> Vec<u32> {
+            i.pixels
+                .iter()
+                .flat_map(|c| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()])
+                .collect()
+        };
+        assert_eq!(bits(&one.image), bits(&two.image), "{name}");
+        assert_eq!(bits(&one.raw), bits(&two.raw), "{name}");
+    }
+}
+
+/// Denoised and raw MSE against the reference at `spp`, seed 0: the
+/// denoised may not be above the raw. MSE against a reference is the true
+/// MSE plus the reference's own noise (the same for both) plus a cross
+/// term `2 mean((x − truth)(truth − ref))`, whose difference between the two
+/// images has a standard deviation of at most
+/// `2 rms(denoised − raw) · rms_se(ref) / √(3 pixels)`: the allowance is 4
+/// of those.
+fn never_worse(spp: u32) {
+    for name in names() {
+        let r = Reference::load(&name).unwrap();
+        let out = denoised(&name, r.image.width, r.image.height, spp, 0, 0);
+        let raw = mse(&out.raw, &r.image);
+        let dn = mse(&out.image, &r.image);
+        let moved = mse(&out.image, &out.raw).sqrt();
+        let n = (3 * r.image.pixels.len()) as f64;
+        let allowance = 4.0 * 2.0 * moved * r.rms_standard_error / n.sqrt();
+        println!(
+            "{name} {spp} spp: MSE raw {raw:.4e}, denoised {dn:.4e} (allowance {allowance:.1e})"
+        );
+        assert!(
+            dn <= raw + allowance,
+            "{name} at {spp} spp: denoised MSE {dn:.4e} above the raw image's {raw:.4e} (+{allowance:.1e})"
+        );
+    }
+}
+
+#[test]
+fn at_16_spp_the_mse_is_never_above_the_raw_images() {
+    never_worse(16);
+}
+
+#[test]
+fn at_1024_spp_the_filter_backs_off_and_the_mse_is_not_above_the_raw_images() {
+    never_worse(1024);
+}
