@@ -228,7 +228,7 @@ enum Kind {
 
 /// Every `MICROPT_FW_*` setting of the `firmware` feature but the machine
 /// and its memory map (read by `main`).
-const SETTINGS: [Setting; 10] = [
+const SETTINGS: [Setting; 11] = [
     Setting {
         var: "MICROPT_FW_SCENE",
         kind: Kind::Path,
@@ -264,6 +264,12 @@ const SETTINGS: [Setting; 10] = [
         kind: Kind::Flag,
         default: Some("0"),
         selects: "uniform allocation (the unbiased estimator) instead of adaptive",
+    },
+    Setting {
+        var: "MICROPT_FW_DENOISE",
+        kind: Kind::Flag,
+        default: Some("0"),
+        selects: "uniform samples into whole-frame moments, then the core's denoiser (needs MICROPT_FW_SPP, not MICROPT_FW_BUDGET_MS)",
     },
     Setting {
         var: "MICROPT_FW_SKIP_OFF",
@@ -512,6 +518,13 @@ fn skip_source(skip_on: &[bool; SKIPS.len()]) -> (String, String) {
 /// and writes `firmware.scene` and `firmware_config.rs` into `out`.
 fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), String> {
     let settings = Settings(read_settings()?);
+    if settings.flag("MICROPT_FW_DENOISE") && settings.int("MICROPT_FW_BUDGET_MS").is_some() {
+        return Err(
+            "MICROPT_FW_DENOISE=1 renders MICROPT_FW_SPP samples in every pixel: \
+             unset MICROPT_FW_BUDGET_MS"
+                .into(),
+        );
+    }
     let scene_rel = settings.text("MICROPT_FW_SCENE");
     let scene_path = root.join(&scene_rel);
     println!("cargo:rerun-if-changed={}", scene_path.display());
@@ -578,6 +591,7 @@ fn config_source(
         None => "micropt::Budget::Spp(SPP)".to_string(),
     };
     let uniform = settings.flag("MICROPT_FW_UNIFORM");
+    let denoise = settings.flag("MICROPT_FW_DENOISE");
     let force_bvh = settings.flag("MICROPT_FW_FORCE_BVH");
     let cores = settings.text("MICROPT_FW_CORES");
     let output = settings.text("MICROPT_FW_OUT");
@@ -610,6 +624,8 @@ fn config_source(
          pub const BUDGET: micropt::Budget = {budget};\n\
          /// Adaptive allocation (false: uniform).\n\
          pub const ADAPTIVE: bool = {};\n\
+         /// Denoised: uniform samples into moments, then the denoiser.\n\
+         pub const DENOISE: bool = {denoise};\n\
          /// The integrator's skip switches.\n\
          pub const SKIP: micropt::Skip = micropt::Skip {{ {skip_fields}}};\n\
          /// The skip switches, for the summary line.\n\

@@ -57,6 +57,8 @@ use embedded_graphics::framebuffer::{Framebuffer, buffer_size};
 use embedded_graphics::pixelcolor::Rgb565;
 use embedded_graphics::pixelcolor::raw::{BigEndian, RawU16};
 use micropt::budget::{Summary, TileAccum, render_budget};
+use micropt::denoise::{self, Candidate, Moments, Texel};
+use micropt::film::FromEncoded;
 use micropt::{AdaptiveOptions, Budget, Options, Renderer, Scene, math};
 #[cfg(target_arch = "riscv32")]
 use riscv_semihosting::{debug, hio, nr, syscall};
@@ -104,8 +106,33 @@ type FirmwareScene = Scene<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>;
 type Fb =
     Framebuffer<Rgb565, RawU16, BigEndian, WIDTH, HEIGHT, { buffer_size::<Rgb565>(WIDTH, HEIGHT) }>;
 
+/// Pixels of the whole-frame sample moments (none without the denoiser).
+const MOMENT_PIXELS: usize = if config::DENOISE { WIDTH * HEIGHT } else { 0 };
+/// Columns of the denoiser's rings (none without it).
+const DENOISE_COLUMNS: usize = if config::DENOISE { WIDTH } else { 0 };
+
+/// What `MICROPT_FW_DENOISE=1` adds to static RAM: every pixel's sample
+/// moments (so that the render and the denoiser are separate phases, each
+/// counted between its marks), and the denoiser's two rings of rows. A
+/// board that streams (renders each row as the ring needs it) keeps only
+/// the rings.
+struct DenoiseMemory {
+    moments: [Moments; MOMENT_PIXELS],
+    ring: [Texel; denoise::RING_ROWS * DENOISE_COLUMNS],
+    candidates: [Candidate; denoise::CHOICE_ROWS * DENOISE_COLUMNS],
+}
+
+impl DenoiseMemory {
+    const EMPTY: Self = Self {
+        moments: [Moments::ZERO; MOMENT_PIXELS],
+        ring: [Texel::kept(micropt::Vec3::ZERO); denoise::RING_ROWS * DENOISE_COLUMNS],
+        candidates: [Candidate::ZERO; denoise::CHOICE_ROWS * DENOISE_COLUMNS],
+    };
+}
+
 /// Everything that can go wrong, each reported on the host's stderr.
 enum Error {
+    Denoise(denoise::DenoiseError),
     #[cfg(feature = "parser")]
     Parse(micropt::parse::ParseError),
     #[cfg(not(feature = "parser"))]
@@ -133,9 +160,12 @@ fn main() -> ! {
     // `Option<Scene>::None`, a non-zero niche, would put the whole scene's
     // size in .data, and so in flash); the scene is parsed into it in place
     static mut SCENE: FirmwareScene = FirmwareScene::EMPTY;
+    // the denoiser's memory (empty unless MICROPT_FW_DENOISE=1; all zeros,
+    // so in .bss)
+    static mut DENOISE: DenoiseMemory = DenoiseMemory::EMPTY;
 
     mark(); // start of main: reset handler, stack paint and RAM init done
-    exit_with(run(FRAMEBUFFER, ACCUM, SCENE))
+    exit_with(run(FRAMEBUFFER, ACCUM, SCENE, DENOISE))
 }
 
 /// The entry point on RISC-V: riscv-rt's `#[entry]` does not hand out its
@@ -147,19 +177,21 @@ fn main() -> ! {
     static mut FRAMEBUFFER: Fb = Fb::new();
     static mut ACCUM: TileAccum = TileAccum::new();
     static mut SCENE: FirmwareScene = FirmwareScene::EMPTY;
+    static mut DENOISE: DenoiseMemory = DenoiseMemory::EMPTY;
 
     paint_stack();
     mark(); // start of main: reset handler, RAM init and stack paint done
     // SAFETY: `main` runs once and never returns, and nothing else names
     // these statics: each `&'static mut` is the only reference ever made.
-    let (fb, acc, scene) = unsafe {
+    let (fb, acc, scene, dn) = unsafe {
         (
             &mut *core::ptr::addr_of_mut!(FRAMEBUFFER),
             &mut *core::ptr::addr_of_mut!(ACCUM),
             &mut *core::ptr::addr_of_mut!(SCENE),
+            &mut *core::ptr::addr_of_mut!(DENOISE),
         )
     };
-    exit_with(run(fb, acc, scene))
+    exit_with(run(fb, acc, scene, dn))
 }
 
 /// Reports an error on the host's stderr, and exits QEMU through
@@ -246,6 +278,7 @@ fn run(
     fb: &'static mut Fb,
     acc: &'static mut TileAccum,
     scene_slot: &'static mut FirmwareScene,
+    dn: &'static mut DenoiseMemory,
 ) -> Result<(), Error> {
     check_fpu_sqrt()?;
     // the render's clock: SysTick on the core clock, or on RISC-V the
@@ -275,23 +308,79 @@ fn run(
     };
     mark(); // scene loaded, camera set up
 
-    // the framebuffer's error type is Infallible
-    let Ok(sum) = render_budget(
-        &renderer,
-        config::BUDGET,
-        &adaptive,
-        acc,
-        &mut clock,
-        fb,
-        EXPOSURE,
-    );
-    mark(); // image rendered into the framebuffer
+    let sum = if config::DENOISE {
+        // every pixel's SPP samples into its moments, then the denoiser
+        // into the framebuffer (the marks: rendered, denoised)
+        render_denoised(&renderer, dn, fb, &mut clock)?
+    } else {
+        // the framebuffer's error type is Infallible
+        let Ok(sum) = render_budget(
+            &renderer,
+            config::BUDGET,
+            &adaptive,
+            acc,
+            &mut clock,
+            fb,
+            EXPOSURE,
+        );
+        mark(); // image rendered into the framebuffer
+        sum
+    };
 
     dump(fb.data())?;
     mark(); // dump written
 
     summary(&sum, fb.data().len(), stack_high_water());
     Ok(())
+}
+
+/// `MICROPT_FW_DENOISE=1`: `SPP` samples of every pixel into its moments
+/// (uniform: the denoiser's variance needs every pixel's samples), the
+/// `rendered` mark, the core's denoiser into the framebuffer, the
+/// `denoised` mark. The image is bit-identical with `micropt render SCENE
+/// --spp N --size WxH --seed S --denoise -o out.rgb565`. (Not inlined:
+/// its stack is not live in the other path.)
+#[inline(never)]
+fn render_denoised(
+    renderer: &Renderer<'_>,
+    dn: &mut DenoiseMemory,
+    fb: &mut Fb,
+    clock: &mut BoardClock,
+) -> Result<Summary, Error> {
+    use embedded_graphics::prelude::Point;
+    use micropt::budget::Clock;
+    let start = clock.micros();
+    let mut stats = micropt::Stats::default();
+    for (i, m) in dn.moments.iter_mut().enumerate() {
+        let (x, y) = ((i % WIDTH) as u32, (i / WIDTH) as u32);
+        let pixel = renderer.pixel(x, y);
+        for k in 0..config::SPP {
+            m.add(
+                renderer.sample_parts_in(&pixel, x, y, k, &mut stats),
+                k < config::SPP / 2,
+            );
+        }
+    }
+    mark(); // every pixel's samples in its moments
+    denoise::denoise_moments(
+        renderer,
+        &dn.moments,
+        config::SPP,
+        &mut dn.ring,
+        &mut dn.candidates,
+        |y, x, c| {
+            let colour = Rgb565::from_encoded(micropt::film::tone_map(c, EXPOSURE), x, y);
+            fb.set_pixel(Point::new(x as i32, y as i32), colour);
+        },
+    )
+    .map_err(Error::Denoise)?;
+    mark(); // denoised into the framebuffer
+    Ok(Summary {
+        samples: (WIDTH * HEIGHT) as u64 * u64::from(config::SPP),
+        stats,
+        preview_micros: 0,
+        total_micros: clock.micros().saturating_sub(start),
+    })
 }
 
 /// Prints the one-line summary. (Not inlined: its formatting stack is not
@@ -310,7 +399,9 @@ fn summary(sum: &Summary, bytes: usize, stack: usize) {
         Budget::Paths(p) => write!(o, "paths {p}"),
         Budget::Spp(n) => write!(o, "spp {n}"),
     };
-    let _ = o.write_str(if config::ADAPTIVE {
+    let _ = o.write_str(if config::DENOISE {
+        " uniform denoised skip "
+    } else if config::ADAPTIVE {
         " adaptive skip "
     } else {
         " uniform skip "
@@ -557,6 +648,7 @@ fn report(e: &Error) {
         }
         #[cfg(not(feature = "parser"))]
         Error::Scene(e) => writeln!(o, "the scene built in code: {e}"),
+        Error::Denoise(e) => writeln!(o, "denoiser: {e}"),
         Error::Camera => o.write_str("invalid camera for the image size\n"),
         #[cfg(target_arch = "arm")]
         Error::Peripherals => o.write_str("core peripherals already taken\n"),

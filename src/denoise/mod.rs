@@ -299,17 +299,18 @@ impl<'w> Denoiser<'w> {
         if w == 0 || h == 0 {
             return Err(DenoiseError::Size);
         }
-        let Some(need) = w.checked_mul(RING_ROWS) else {
+        let (Some(texels), Some(cands)) = (w.checked_mul(RING_ROWS), w.checked_mul(CHOICE_ROWS))
+        else {
             return Err(DenoiseError::Size);
         };
-        if ring.len() < need || row.len() < w.saturating_mul(CHOICE_ROWS) {
+        let (Some(ring), Some(row)) = (ring.get_mut(..texels), row.get_mut(..cands)) else {
             return Err(DenoiseError::Workspace);
-        }
+        };
         let mut weights = [[0.0; SIDE * SIDE]; WIDTHS.len()];
-        for (k, table) in weights.iter_mut().enumerate() {
+        for (k, (table, width)) in weights.iter_mut().zip(WIDTHS).enumerate() {
             let reach = if k == 0 { NARROW } else { RADIUS };
             // exp(−d²/2σ²) = 2^(−d² log2(e) / 2σ²)
-            let c = -core::f32::consts::LOG2_E / (2.0 * WIDTHS[k] * WIDTHS[k]);
+            let c = -core::f32::consts::LOG2_E / (2.0 * width * width);
             for (i, wt) in table.iter_mut().enumerate() {
                 let dx = (i % SIDE).abs_diff(RADIUS);
                 let dy = (i / SIDE).abs_diff(RADIUS);
@@ -323,8 +324,8 @@ impl<'w> Denoiser<'w> {
         Ok(Self {
             width: w,
             height: h,
-            ring: &mut ring[..need],
-            row: &mut row[..w * CHOICE_ROWS],
+            ring,
+            row,
             weights,
             guards: Guards::default(),
         })
@@ -351,7 +352,9 @@ impl<'w> Denoiser<'w> {
         for y in 0..h {
             while filled < h && filled <= y + RADIUS {
                 let slot = (filled % RING_ROWS) * w;
-                fill(filled as u32, &mut self.ring[slot..slot + w]);
+                if let Some(texels) = self.ring.get_mut(slot..slot + w) {
+                    fill(filled as u32, texels);
+                }
                 filled += 1;
             }
             self.candidates(y);
@@ -364,71 +367,97 @@ impl<'w> Denoiser<'w> {
         }
     }
 
+    /// Row `r`'s texels in the ring (empty if out of reach: never, for
+    /// the rows `run` asks for).
+    fn ring_row(&self, r: usize) -> &[Texel] {
+        let start = (r % RING_ROWS) * self.width;
+        self.ring.get(start..start + self.width).unwrap_or(&[])
+    }
+
+    /// Row `r`'s candidates (empty if out of reach, as for `ring_row`).
+    fn candidate_row(&self, r: usize) -> &[Candidate] {
+        let start = (r % CHOICE_ROWS) * self.width;
+        self.row.get(start..start + self.width).unwrap_or(&[])
+    }
+
     /// The candidates and their SURE for every pixel of row `y`.
     fn candidates(&mut self, y: usize) {
-        let (w, h) = (self.width, self.height);
-        let y0 = y.saturating_sub(RADIUS);
-        let y1 = (y + RADIUS).min(h - 1);
+        let w = self.width;
+        let start = (y % CHOICE_ROWS) * w;
         for x in 0..w {
-            let p = self.ring[(y % RING_ROWS) * w + x];
-            let cand = &mut self.row[(y % CHOICE_ROWS) * w + x];
-            if !p.filtered {
-                *cand = Candidate {
-                    direct: p.raw(),
-                    ..Candidate::ZERO
-                };
-                continue;
-            }
-            cand.scattered = p.scattered;
-            cand.direct = p.direct;
-            cand.variance = p.spread;
-            cand.filtered_pixel = true;
-            let x0 = x.saturating_sub(RADIUS);
-            let x1 = (x + RADIUS).min(w - 1);
-            let mut sum = [Color::ZERO; WIDTHS.len()];
-            let mut wsum = [0.0f32; WIDTHS.len()];
-            for qy in y0..=y1 {
-                let base = (qy % RING_ROWS) * w;
-                let trow = (qy + RADIUS - y) * SIDE;
-                for qx in x0..=x1 {
-                    let q = &self.ring[base + qx];
-                    if !q.filtered || q.key != p.key || math::lt(p.normal.dot(q.normal), NORMAL_COS)
-                    {
-                        continue;
-                    }
-                    let t = trow + qx + RADIUS - x;
-                    for k in 0..WIDTHS.len() {
-                        let wt = self.weights[k][t];
-                        sum[k] += q.shade * wt;
-                        wsum[k] += wt;
-                    }
-                }
-            }
-            let y_lum = p.scattered.luminance();
-            let centre = self.weights[0][RADIUS * SIDE + RADIUS];
-            for k in 0..WIDTHS.len() {
-                // the pixel itself is always a tap: wsum[k] ≥ its weight 1
-                let inv = 1.0 / wsum[k];
-                let f = p.albedo * (sum[k] * inv);
-                cand.filtered[k] = f;
-                let d = f.luminance() - y_lum;
-                let div = if self.guards.divergence {
-                    2.0 * centre * inv - 1.0
-                } else {
-                    -1.0
-                };
-                cand.sure[k] = d * d + p.variance * div;
-            }
-            cand.sure[WIDTHS.len()] = p.variance;
-            // each pixel's estimates relative to its brightness (the widest
-            // filter's, the least noisy guess of it), so that a dark pixel's
-            // choice is not made by its bright neighbours' errors
-            let b = cand.filtered[WIDTHS.len() - 1].luminance();
-            let rel = 1.0 / (b * b + RELATIVE_FLOOR);
-            for s in cand.sure.iter_mut() {
-                *s *= rel;
+            let cand = self.candidate_at(y, x);
+            if let Some(slot) = self.row.get_mut(start + x) {
+                *slot = cand;
             }
         }
+    }
+
+    /// Pixel (x, y)'s candidates and their SURE (from the ring).
+    fn candidate_at(&self, y: usize, x: usize) -> Candidate {
+        let (w, h) = (self.width, self.height);
+        let Some(&p) = self.ring_row(y).get(x) else {
+            return Candidate::ZERO;
+        };
+        if !p.filtered {
+            return Candidate {
+                direct: p.raw(),
+                ..Candidate::ZERO
+            };
+        }
+        let x0 = x.saturating_sub(RADIUS);
+        let x1 = (x + RADIUS).min(w - 1);
+        let mut sum = [Color::ZERO; WIDTHS.len()];
+        let mut wsum = [0.0f32; WIDTHS.len()];
+        for qy in y.saturating_sub(RADIUS)..=(y + RADIUS).min(h - 1) {
+            let taps = self.ring_row(qy).get(x0..=x1).unwrap_or(&[]);
+            // the weight tables' entries of this row's taps
+            let t0 = (qy + RADIUS - y) * SIDE + x0 + RADIUS - x;
+            for (j, q) in taps.iter().enumerate() {
+                if !q.filtered || q.key != p.key || math::lt(p.normal.dot(q.normal), NORMAL_COS) {
+                    continue;
+                }
+                for ((s, ws), table) in sum.iter_mut().zip(wsum.iter_mut()).zip(&self.weights) {
+                    let wt = table.get(t0 + j).copied().unwrap_or(0.0);
+                    *s += q.shade * wt;
+                    *ws += wt;
+                }
+            }
+        }
+        let y_lum = p.scattered.luminance();
+        let mut cand = Candidate {
+            scattered: p.scattered,
+            direct: p.direct,
+            variance: p.spread,
+            filtered_pixel: true,
+            ..Candidate::ZERO
+        };
+        for ((f, sure), (s, ws)) in cand
+            .filtered
+            .iter_mut()
+            .zip(cand.sure.iter_mut())
+            .zip(sum.iter().zip(wsum))
+        {
+            // the pixel itself is always a tap, of weight 1: ws ≥ 1
+            let inv = 1.0 / ws;
+            *f = p.albedo * (*s * inv);
+            let d = f.luminance() - y_lum;
+            let div = if self.guards.divergence {
+                2.0 * inv - 1.0
+            } else {
+                -1.0
+            };
+            *sure = d * d + p.variance * div;
+        }
+        cand.sure[WIDTHS.len()] = p.variance;
+        // each pixel's estimates relative to its brightness (the widest
+        // filter's, the least noisy guess of it), so that a dark pixel's
+        // choice is not made by its bright neighbours' errors
+        let b = cand.filtered[WIDTHS.len() - 1].luminance();
+        let rel = 1.0 / (b * b + RELATIVE_FLOOR);
+        for s in cand.sure.iter_mut() {
+            *s *= rel;
+        }
+        cand
     }
 
     /// The choice for every pixel of row `y`, emitted: the candidate whose
@@ -436,11 +465,9 @@ impl<'w> Denoiser<'w> {
     /// is least, "no filter" on a tie.
     fn choose(&mut self, y: usize, emit: &mut impl FnMut(u32, u32, Color)) {
         let (w, h) = (self.width, self.height);
-        let base = (y % CHOICE_ROWS) * w;
         let y0 = y.saturating_sub(CHOICE_RADIUS);
         let y1 = (y + CHOICE_RADIUS).min(h - 1);
-        for x in 0..w {
-            let p = self.row[base + x];
+        for (x, p) in self.candidate_row(y).iter().enumerate() {
             if !p.filtered_pixel {
                 emit(y as u32, x as u32, p.direct);
                 continue;
@@ -449,8 +476,7 @@ impl<'w> Denoiser<'w> {
             let x0 = x.saturating_sub(CHOICE_RADIUS);
             let x1 = (x + CHOICE_RADIUS).min(w - 1);
             for qy in y0..=y1 {
-                let row = &self.row[(qy % CHOICE_ROWS) * w..][..w];
-                for q in &row[x0..=x1] {
+                for q in self.candidate_row(qy).get(x0..=x1).unwrap_or(&[]) {
                     for (t, s) in total.iter_mut().zip(q.sure.iter()) {
                         *t += *s;
                     }
@@ -459,27 +485,26 @@ impl<'w> Denoiser<'w> {
             // without "no filter" among the choices, the narrowest filter
             // is what is left
             let (mut best, mut best_sure) = if self.guards.no_filter {
-                (WIDTHS.len(), total[WIDTHS.len()])
+                (None, total[WIDTHS.len()])
             } else {
-                (0, f32::INFINITY)
+                (Some(0), f32::INFINITY)
             };
             let y_lum = p.scattered.luminance();
-            for (k, t) in total.iter().take(WIDTHS.len()).enumerate() {
+            for (k, (t, f)) in total.iter().zip(&p.filtered).enumerate() {
                 // the consistency guard: a filter may move the pixel by at
                 // most CONSISTENCY of its own standard errors (else it is
                 // biased here, whatever its window's SURE says)
-                let d = p.filtered[k].luminance() - y_lum;
+                let d = f.luminance() - y_lum;
                 let consistent =
                     !self.guards.consistency || d * d <= CONSISTENCY * CONSISTENCY * p.variance;
                 if consistent && math::lt(*t, best_sure) {
-                    best = k;
+                    best = Some(k);
                     best_sure = *t;
                 }
             }
-            let out = if best == WIDTHS.len() {
-                p.scattered
-            } else {
-                p.filtered[best]
+            let out = match best.and_then(|k| p.filtered.get(k)) {
+                Some(f) => *f,
+                None => p.scattered,
             };
             emit(y as u32, x as u32, out + p.direct);
         }
@@ -506,7 +531,8 @@ pub fn denoise_moments(
     d.run(
         |y, texels| {
             let start = y as usize * w as usize;
-            for (x, (t, m)) in texels.iter_mut().zip(&moments[start..]).enumerate() {
+            let row = moments.get(start..).unwrap_or(&[]);
+            for (x, (t, m)) in texels.iter_mut().zip(row).enumerate() {
                 *t = Texel::new(m, n, &guide(renderer, x as u32, y));
             }
         },
