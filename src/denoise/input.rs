@@ -105,6 +105,9 @@ pub struct Guide {
     pub key: u32,
     /// How many mirror and glass vertices came before the surface.
     pub deltas: u32,
+    /// Whether the surface is a plane (its normal the same at every
+    /// point: pixels of the same key need no normal test).
+    pub flat: bool,
 }
 
 impl Guide {
@@ -116,6 +119,7 @@ impl Guide {
         point: Vec3::ZERO,
         key: 0,
         deltas: 0,
+        flat: false,
     };
 }
 
@@ -150,6 +154,7 @@ pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
             point: hit.point,
             key,
             deltas,
+            flat: hit.object.as_plane().is_some(),
         };
         let dir = match mat {
             Material::Diffuse(a) => return surface(*a),

@@ -50,14 +50,16 @@ use crate::math;
 pub const RADIUS: usize = 4;
 /// Rows the ring holds: the row being filtered and [`RADIUS`] either side.
 pub const RING_ROWS: usize = 2 * RADIUS + 1;
-/// Gaussian widths (standard deviation, pixels) of the candidate filters;
-/// the narrow one uses the taps within 2 pixels only.
+/// Gaussian widths (standard deviation, pixels) of the candidate filters:
+/// the narrow one over the pixels within 2 in x and y, the wide one within
+/// [`RADIUS`]. Each is separable: a pass along the row, then one along
+/// the column over the row pass's results.
 pub const WIDTHS: [f32; 2] = [1.0, 3.0];
 /// The narrow filter's reach.
 const NARROW: usize = 2;
 /// A pixel's SURE is summed over this many pixels either side, in x and
 /// in y, before the choice.
-pub const CHOICE_RADIUS: usize = 4;
+pub const CHOICE_RADIUS: usize = 3;
 /// Two pixels are filtered together only if their normals' cosine is at
 /// least this.
 pub const NORMAL_COS: f32 = 0.9;
@@ -98,6 +100,14 @@ pub struct Texel {
     pub key: u32,
     /// Whether the pixel is filtered and is a tap.
     pub filtered: bool,
+    /// Whether its surface is a plane ([`Guide::flat`]).
+    pub flat: bool,
+    /// Each filter's pass along the row: the weighted mean of the `shade`
+    /// of the similar pixels within its reach in the row.
+    pub across: [Color; WIDTHS.len()],
+    /// Each row pass's weight on the pixel itself over its weights' sum
+    /// (its derivative with respect to the pixel's own value).
+    pub own: [f32; WIDTHS.len()],
 }
 
 impl Texel {
@@ -113,6 +123,9 @@ impl Texel {
             spread: 0.0,
             key: 0,
             filtered: false,
+            flat: false,
+            across: [Color::ZERO; WIDTHS.len()],
+            own: [0.0; WIDTHS.len()],
         }
     }
 
@@ -136,7 +149,7 @@ impl Texel {
         // of its own: ((A − B) / 2)² of the halves' means A and B estimates
         // the variance of (A + B) / 2 as they are sampled (one degree of
         // freedom; SURE sums it over a window)
-        let variance = if n >= 2 && n % 2 == 0 {
+        let variance = if n >= 2 && n.is_multiple_of(2) {
             let d = (2.0 * m.half - sum) * inv;
             d * d
         } else {
@@ -167,6 +180,9 @@ impl Texel {
             spread: iid,
             key: g.key,
             filtered: true,
+            flat: g.flat,
+            across: [Color::ZERO; WIDTHS.len()],
+            own: [0.0; WIDTHS.len()],
         }
     }
 
@@ -185,6 +201,9 @@ pub struct Candidate {
     /// Each filter's SURE, and "no filter"'s last (0 for a pixel left as
     /// rendered, which no choice counts).
     pub sure: [f32; WIDTHS.len() + 1],
+    /// The same summed over the pixels within [`CHOICE_RADIUS`] in the row
+    /// (once per row, so that the choice adds rows, not pixels).
+    pub row_sure: [f32; WIDTHS.len() + 1],
     /// The pixel's own scattered mean.
     pub scattered: Color,
     /// The pixel's direct mean (added to whatever is chosen).
@@ -201,6 +220,7 @@ impl Candidate {
     pub const ZERO: Self = Self {
         filtered: [Color::ZERO; WIDTHS.len()],
         sure: [0.0; WIDTHS.len() + 1],
+        row_sure: [0.0; WIDTHS.len() + 1],
         scattered: Color::ZERO,
         direct: Color::ZERO,
         variance: 0.0,
@@ -255,8 +275,9 @@ pub struct Denoiser<'w> {
     height: usize,
     ring: &'w mut [Texel],
     row: &'w mut [Candidate],
-    /// Each width's Gaussian weight per tap offset (row-major, `SIDE²`).
-    weights: [[f32; SIDE * SIDE]; WIDTHS.len()],
+    /// Each filter's Gaussian weight per tap offset `−RADIUS ..= RADIUS`
+    /// (0 beyond its reach), along a row and along a column alike.
+    weights: [[f32; SIDE]; WIDTHS.len()],
     /// Which choice the guards leave (tests turn them off one at a time).
     guards: Guards,
 }
@@ -306,16 +327,15 @@ impl<'w> Denoiser<'w> {
         let (Some(ring), Some(row)) = (ring.get_mut(..texels), row.get_mut(..cands)) else {
             return Err(DenoiseError::Workspace);
         };
-        let mut weights = [[0.0; SIDE * SIDE]; WIDTHS.len()];
+        let mut weights = [[0.0; SIDE]; WIDTHS.len()];
         for (k, (table, width)) in weights.iter_mut().zip(WIDTHS).enumerate() {
             let reach = if k == 0 { NARROW } else { RADIUS };
             // exp(−d²/2σ²) = 2^(−d² log2(e) / 2σ²)
             let c = -core::f32::consts::LOG2_E / (2.0 * width * width);
             for (i, wt) in table.iter_mut().enumerate() {
-                let dx = (i % SIDE).abs_diff(RADIUS);
-                let dy = (i / SIDE).abs_diff(RADIUS);
-                *wt = if dx <= reach && dy <= reach {
-                    math::exp2(c * (dx * dx + dy * dy) as f32)
+                let d = i.abs_diff(RADIUS);
+                *wt = if d <= reach {
+                    math::exp2(c * (d * d) as f32)
                 } else {
                     0.0
                 };
@@ -354,6 +374,7 @@ impl<'w> Denoiser<'w> {
                 let slot = (filled % RING_ROWS) * w;
                 if let Some(texels) = self.ring.get_mut(slot..slot + w) {
                     fill(filled as u32, texels);
+                    across(texels, &self.weights);
                 }
                 filled += 1;
             }
@@ -367,14 +388,8 @@ impl<'w> Denoiser<'w> {
         }
     }
 
-    /// Row `r`'s texels in the ring (empty if out of reach: never, for
-    /// the rows `run` asks for).
-    fn ring_row(&self, r: usize) -> &[Texel] {
-        let start = (r % RING_ROWS) * self.width;
-        self.ring.get(start..start + self.width).unwrap_or(&[])
-    }
-
-    /// Row `r`'s candidates (empty if out of reach, as for `ring_row`).
+    /// Row `r`'s candidates (empty if out of reach: never, for the rows
+    /// `run` asks for).
     fn candidate_row(&self, r: usize) -> &[Candidate] {
         let start = (r % CHOICE_ROWS) * self.width;
         self.row.get(start..start + self.width).unwrap_or(&[])
@@ -382,102 +397,58 @@ impl<'w> Denoiser<'w> {
 
     /// The candidates and their SURE for every pixel of row `y`.
     fn candidates(&mut self, y: usize) {
-        let w = self.width;
-        let start = (y % CHOICE_ROWS) * w;
-        for x in 0..w {
-            let cand = self.candidate_at(y, x);
-            if let Some(slot) = self.row.get_mut(start + x) {
-                *slot = cand;
-            }
-        }
-    }
-
-    /// Pixel (x, y)'s candidates and their SURE (from the ring).
-    fn candidate_at(&self, y: usize, x: usize) -> Candidate {
         let (w, h) = (self.width, self.height);
-        let Some(&p) = self.ring_row(y).get(x) else {
-            return Candidate::ZERO;
-        };
-        if !p.filtered {
-            return Candidate {
-                direct: p.raw(),
-                ..Candidate::ZERO
-            };
-        }
-        let x0 = x.saturating_sub(RADIUS);
-        let x1 = (x + RADIUS).min(w - 1);
-        let mut sum = [Color::ZERO; WIDTHS.len()];
-        let mut wsum = [0.0f32; WIDTHS.len()];
-        for qy in y.saturating_sub(RADIUS)..=(y + RADIUS).min(h - 1) {
-            let taps = self.ring_row(qy).get(x0..=x1).unwrap_or(&[]);
-            // the weight tables' entries of this row's taps
-            let t0 = (qy + RADIUS - y) * SIDE + x0 + RADIUS - x;
-            for (j, q) in taps.iter().enumerate() {
-                if !q.filtered || q.key != p.key || math::lt(p.normal.dot(q.normal), NORMAL_COS) {
-                    continue;
+        // the ring's rows y − RADIUS ..= y + RADIUS (empty outside the image)
+        let rows: [&[Texel]; SIDE] =
+            core::array::from_fn(|dy| match (y + dy).checked_sub(RADIUS).filter(|&q| q < h) {
+                Some(qy) => {
+                    let start = (qy % RING_ROWS) * w;
+                    self.ring.get(start..start + w).unwrap_or(&[])
                 }
-                for ((s, ws), table) in sum.iter_mut().zip(wsum.iter_mut()).zip(&self.weights) {
-                    let wt = table.get(t0 + j).copied().unwrap_or(0.0);
-                    *s += q.shade * wt;
-                    *ws += wt;
+                None => &[],
+            });
+        let start = (y % CHOICE_ROWS) * w;
+        let out = self.row.get_mut(start..start + w).unwrap_or(&mut []);
+        for (x, slot) in out.iter_mut().enumerate() {
+            candidate_at(&rows, x, &self.weights, self.guards, slot);
+        }
+        for x in 0..w {
+            let x0 = x.saturating_sub(CHOICE_RADIUS);
+            let x1 = (x + CHOICE_RADIUS).min(w - 1);
+            let mut total = [0.0f32; WIDTHS.len() + 1];
+            for q in out.get(x0..=x1).unwrap_or(&[]) {
+                for (t, s) in total.iter_mut().zip(q.sure.iter()) {
+                    *t += *s;
                 }
             }
+            if let Some(slot) = out.get_mut(x) {
+                slot.row_sure = total;
+            }
         }
-        let y_lum = p.scattered.luminance();
-        let mut cand = Candidate {
-            scattered: p.scattered,
-            direct: p.direct,
-            variance: p.spread,
-            filtered_pixel: true,
-            ..Candidate::ZERO
-        };
-        for ((f, sure), (s, ws)) in cand
-            .filtered
-            .iter_mut()
-            .zip(cand.sure.iter_mut())
-            .zip(sum.iter().zip(wsum))
-        {
-            // the pixel itself is always a tap, of weight 1: ws ≥ 1
-            let inv = 1.0 / ws;
-            *f = p.albedo * (*s * inv);
-            let d = f.luminance() - y_lum;
-            let div = if self.guards.divergence {
-                2.0 * inv - 1.0
-            } else {
-                -1.0
-            };
-            *sure = d * d + p.variance * div;
-        }
-        cand.sure[WIDTHS.len()] = p.variance;
-        // each pixel's estimates relative to its brightness (the widest
-        // filter's, the least noisy guess of it), so that a dark pixel's
-        // choice is not made by its bright neighbours' errors
-        let b = cand.filtered[WIDTHS.len() - 1].luminance();
-        let rel = 1.0 / (b * b + RELATIVE_FLOOR);
-        for s in cand.sure.iter_mut() {
-            *s *= rel;
-        }
-        cand
     }
 
     /// The choice for every pixel of row `y`, emitted: the candidate whose
     /// SURE summed over the pixels within [`CHOICE_RADIUS`] (in x and y)
     /// is least, "no filter" on a tie.
     fn choose(&mut self, y: usize, emit: &mut impl FnMut(u32, u32, Color)) {
-        let (w, h) = (self.width, self.height);
-        let y0 = y.saturating_sub(CHOICE_RADIUS);
-        let y1 = (y + CHOICE_RADIUS).min(h - 1);
-        for (x, p) in self.candidate_row(y).iter().enumerate() {
+        let h = self.height;
+        // the candidate rows y − CHOICE_RADIUS ..= y + CHOICE_RADIUS
+        // (empty outside the image)
+        let rows: [&[Candidate]; CHOICE_ROWS] = core::array::from_fn(|dy| {
+            match (y + dy).checked_sub(CHOICE_RADIUS).filter(|&q| q < h) {
+                Some(qy) => self.candidate_row(qy),
+                None => &[],
+            }
+        });
+        for (x, p) in rows[CHOICE_RADIUS].iter().enumerate() {
             if !p.filtered_pixel {
                 emit(y as u32, x as u32, p.direct);
                 continue;
             }
             let mut total = [0.0f32; WIDTHS.len() + 1];
-            let x0 = x.saturating_sub(CHOICE_RADIUS);
-            let x1 = (x + CHOICE_RADIUS).min(w - 1);
-            for qy in y0..=y1 {
-                for q in self.candidate_row(qy).get(x0..=x1).unwrap_or(&[]) {
-                    for (t, s) in total.iter_mut().zip(q.sure.iter()) {
+            for row in &rows {
+                if let Some(q) = row.get(x) {
+                    for (t, s) in total.iter_mut().zip(q.row_sure.iter()) {
                         *t += *s;
                     }
                 }
@@ -507,6 +478,151 @@ impl<'w> Denoiser<'w> {
                 None => p.scattered,
             };
             emit(y as u32, x as u32, out + p.direct);
+        }
+    }
+}
+
+/// Pixel `x`'s candidates and their SURE into `cand`, from the ring's rows
+/// around it (`rows[RADIUS]` its own): the column pass over the row
+/// passes' results.
+#[inline(always)]
+fn candidate_at(
+    rows: &[&[Texel]; SIDE],
+    x: usize,
+    weights: &[[f32; SIDE]; WIDTHS.len()],
+    guards: Guards,
+    cand: &mut Candidate,
+) {
+    let Some(p) = rows[RADIUS].get(x) else {
+        *cand = Candidate::ZERO;
+        return;
+    };
+    if !p.filtered {
+        *cand = Candidate {
+            direct: p.raw(),
+            ..Candidate::ZERO
+        };
+        return;
+    }
+    let mut sum = [Color::ZERO; WIDTHS.len()];
+    let mut wsum = [0.0f32; WIDTHS.len()];
+    let [narrow, wide] = weights;
+    let g = Guide3 {
+        key: p.key,
+        flat: p.flat,
+        normal: p.normal,
+    };
+    for ((row, &ww), &wn) in rows.iter().zip(wide).zip(narrow) {
+        let Some(q) = row.get(x) else {
+            continue;
+        };
+        if !similar(&g, q) {
+            continue;
+        }
+        sum[1] += q.across[1] * ww;
+        wsum[1] += ww;
+        // the narrow filter's weights are 0 beyond its reach
+        if math::gt_zero(wn) {
+            sum[0] += q.across[0] * wn;
+            wsum[0] += wn;
+        }
+    }
+    let y_lum = p.scattered.luminance();
+    cand.scattered = p.scattered;
+    cand.direct = p.direct;
+    cand.variance = p.spread;
+    cand.filtered_pixel = true;
+    for (((f, sure), (s, ws)), own) in cand
+        .filtered
+        .iter_mut()
+        .zip(cand.sure.iter_mut())
+        .zip(sum.iter().zip(wsum))
+        .zip(p.own)
+    {
+        // the pixel itself is always a tap, of weight 1: ws ≥ 1
+        let inv = 1.0 / ws;
+        *f = p.albedo * (*s * inv);
+        let d = f.luminance() - y_lum;
+        // ∂F/∂y at the pixel: its own share of the column pass times its
+        // own share of its row pass (no other row holds it)
+        let div = if guards.divergence {
+            2.0 * inv * own - 1.0
+        } else {
+            -1.0
+        };
+        *sure = d * d + p.variance * div;
+    }
+    cand.sure[WIDTHS.len()] = p.variance;
+    // each pixel's estimates relative to its brightness (the widest
+    // filter's, the least noisy guess of it), so that a dark pixel's choice
+    // is not made by its bright neighbours' errors
+    let b = cand.filtered[WIDTHS.len() - 1].luminance();
+    let rel = 1.0 / (b * b + RELATIVE_FLOOR);
+    for s in cand.sure.iter_mut() {
+        *s *= rel;
+    }
+}
+
+/// Whether `q` is a tap of `p`'s filters: both filtered, the same chain of
+/// objects, normals within [`NORMAL_COS`] (a plane's are equal).
+#[inline(always)]
+fn similar(p: &Guide3, q: &Texel) -> bool {
+    // a plane's pixels of the same key share its normal: no test
+    q.filtered && q.key == p.key && (p.flat || !math::lt(p.normal.dot(q.normal), NORMAL_COS))
+}
+
+/// What [`similar`] reads of the pixel whose taps it tests.
+#[derive(Clone, Copy)]
+struct Guide3 {
+    key: u32,
+    flat: bool,
+    normal: Vec3,
+}
+
+/// The row pass of every pixel of `row`: each filter's weighted mean of
+/// the similar pixels' shade within its reach, and its own share.
+fn across(row: &mut [Texel], weights: &[[f32; SIDE]; WIDTHS.len()]) {
+    let w = row.len();
+    for x in 0..w {
+        // what the similarity test reads of the pixel (not the whole texel)
+        let p = match row.get(x) {
+            Some(t) if t.filtered => Guide3 {
+                key: t.key,
+                flat: t.flat,
+                normal: t.normal,
+            },
+            _ => continue,
+        };
+        let x0 = x.saturating_sub(RADIUS);
+        let mut sum = [Color::ZERO; WIDTHS.len()];
+        let mut wsum = [0.0f32; WIDTHS.len()];
+        let taps = row.get(x0..=(x + RADIUS).min(w - 1)).unwrap_or(&[]);
+        // the weight tables' entry of the first tap
+        let t0 = x0 + RADIUS - x;
+        let [narrow, wide] = weights;
+        for ((q, &ww), &wn) in taps
+            .iter()
+            .zip(wide.get(t0..).unwrap_or(&[]))
+            .zip(narrow.get(t0..).unwrap_or(&[]))
+        {
+            if !similar(&p, q) {
+                continue;
+            }
+            sum[1] += q.shade * ww;
+            wsum[1] += ww;
+            // the narrow filter's weights are 0 beyond its reach
+            if math::gt_zero(wn) {
+                sum[0] += q.shade * wn;
+                wsum[0] += wn;
+            }
+        }
+        if let Some(t) = row.get_mut(x) {
+            for k in 0..WIDTHS.len() {
+                // the pixel is its own tap, of weight 1: wsum ≥ 1
+                let inv = 1.0 / wsum[k];
+                t.across[k] = sum[k] * inv;
+                t.own[k] = inv;
+            }
         }
     }
 }

@@ -17,6 +17,7 @@ fn wall(a: Color, s: Color, v: f32, key: u32) -> Texel {
         point: Vec3::ZERO,
         key,
         deltas: 0,
+        flat: true,
     };
     // moments of n samples whose mean is s and whose mean's variance is v
     let n = 16u32;
@@ -86,21 +87,19 @@ fn noisy_wall(mu: f32, var: f32, seed: u64) -> [Texel; W * H] {
 }
 
 /// Filter `k`'s predicted error variance in the interior of a flat wall:
-/// `σ² Σw² / (Σw)²` of its Gaussian weights.
+/// `σ² Σw² / (Σw)²` of its weights, the product of the row pass's and the
+/// column pass's Gaussians.
 fn predicted(var: f32, k: usize) -> f32 {
     let (mut s, mut s2) = (0.0f32, 0.0f32);
     let reach = if k == 0 { NARROW as i32 } else { RADIUS as i32 };
-    for dy in -reach..=reach {
-        for dx in -reach..=reach {
-            let w = math::exp2(
-                -core::f32::consts::LOG2_E * (dx * dx + dy * dy) as f32
-                    / (2.0 * WIDTHS[k] * WIDTHS[k]),
-            );
-            s += w;
-            s2 += w * w;
-        }
+    for d in -reach..=reach {
+        let w =
+            math::exp2(-core::f32::consts::LOG2_E * (d * d) as f32 / (2.0 * WIDTHS[k] * WIDTHS[k]));
+        s += w;
+        s2 += w * w;
     }
-    var * s2 / (s * s)
+    let one = s2 / (s * s);
+    var * one * one
 }
 
 /// The MSE over the interior of `noisy_wall(0.4, var, seed)` denoised,
@@ -220,6 +219,7 @@ fn a_light_seen_directly_is_kept_and_the_rest_filtered() {
         point: Vec3::ZERO,
         key: 1,
         deltas,
+        flat: true,
     };
     let m = Moments {
         scattered: [4.0; 3],
