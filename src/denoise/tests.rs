@@ -1,6 +1,9 @@
 //! The denoiser on synthetic images whose truth is known: what each part
 //! of the design is for, and that each safeguard, removed, fails a test.
 
+// the tests index their images by pixel coordinates
+#![allow(clippy::needless_range_loop)]
+
 use super::*;
 use rand_core::{Rng, SeedableRng};
 use rand_xorshift::XorShiftRng;
