@@ -47,7 +47,7 @@ use crate::geometry::{Color, Vec3};
 use crate::math;
 
 /// Taps reach this many pixels either side, in x and in y.
-pub const RADIUS: usize = 4;
+pub const RADIUS: usize = 3;
 /// Rows the ring holds: the row being filtered and [`RADIUS`] either side.
 pub const RING_ROWS: usize = 2 * RADIUS + 1;
 /// Gaussian widths (standard deviation, pixels) of the candidate filters:
@@ -68,6 +68,12 @@ pub const NORMAL_COS: f32 = 0.9;
 /// pixel of huge variance in it (a firefly) would otherwise choose for its
 /// neighbours the filter that spreads it over them.
 pub const CONSISTENCY: f32 = 6.0;
+/// A tap is an outlier for a pixel where its samples' spread (standard
+/// deviation of the mean) is more than this many times the pixel's own.
+pub const OUTLIER: f32 = 8.0;
+/// ... or than this fraction of the pixel's brightness (squared), for a
+/// pixel whose own samples happen to agree.
+const OUTLIER_FLOOR: f32 = 0.01;
 /// The choice weighs each pixel's SURE by `1 / (b² + RELATIVE_FLOOR)`, `b`
 /// its brightness (the relative MSE's floor).
 const RELATIVE_FLOOR: f32 = 0.01;
@@ -294,6 +300,9 @@ pub struct Guards {
     /// A filter is chosen only where it moves the pixel by at most
     /// [`CONSISTENCY`] standard errors of the pixel's own mean.
     pub consistency: bool,
+    /// A tap whose samples spread [`OUTLIER`] times more than the pixel's
+    /// (a firefly) is no tap.
+    pub outlier: bool,
 }
 
 impl Default for Guards {
@@ -302,6 +311,7 @@ impl Default for Guards {
             no_filter: true,
             divergence: true,
             consistency: true,
+            outlier: true,
         }
     }
 }
@@ -374,7 +384,7 @@ impl<'w> Denoiser<'w> {
                 let slot = (filled % RING_ROWS) * w;
                 if let Some(texels) = self.ring.get_mut(slot..slot + w) {
                     fill(filled as u32, texels);
-                    across(texels, &self.weights);
+                    across(texels, &self.weights, self.guards);
                 }
                 filled += 1;
             }
@@ -511,6 +521,7 @@ fn candidate_at(
         key: p.key,
         flat: p.flat,
         normal: p.normal,
+        outlier: outlier(p, guards),
     };
     for ((row, &ww), &wn) in rows.iter().zip(wide).zip(narrow) {
         let Some(q) = row.get(x) else {
@@ -568,7 +579,23 @@ fn candidate_at(
 #[inline(always)]
 fn similar(p: &Guide3, q: &Texel) -> bool {
     // a plane's pixels of the same key share its normal: no test
-    q.filtered && q.key == p.key && (p.flat || !math::lt(p.normal.dot(q.normal), NORMAL_COS))
+    q.filtered
+        && q.key == p.key
+        && !math::gt(q.spread, p.outlier)
+        && (p.flat || !math::lt(p.normal.dot(q.normal), NORMAL_COS))
+}
+
+/// The spread above which a tap is an outlier for pixel `p`'s filters: a
+/// firefly (one rare bright path among the pixel's samples) has a spread
+/// far above its neighbours'; as a tap it would move them by more than
+/// their own noise. (The pixel itself is always its own tap.)
+#[inline(always)]
+fn outlier(p: &Texel, guards: Guards) -> f32 {
+    if !guards.outlier {
+        return f32::INFINITY;
+    }
+    let l = p.scattered.luminance();
+    OUTLIER * OUTLIER * math::max(p.spread, OUTLIER_FLOOR * l * l)
 }
 
 /// What [`similar`] reads of the pixel whose taps it tests.
@@ -577,11 +604,13 @@ struct Guide3 {
     key: u32,
     flat: bool,
     normal: Vec3,
+    /// A tap whose samples spread more than this is an outlier here.
+    outlier: f32,
 }
 
 /// The row pass of every pixel of `row`: each filter's weighted mean of
 /// the similar pixels' shade within its reach, and its own share.
-fn across(row: &mut [Texel], weights: &[[f32; SIDE]; WIDTHS.len()]) {
+fn across(row: &mut [Texel], weights: &[[f32; SIDE]; WIDTHS.len()], guards: Guards) {
     let w = row.len();
     for x in 0..w {
         // what the similarity test reads of the pixel (not the whole texel)
@@ -590,6 +619,7 @@ fn across(row: &mut [Texel], weights: &[[f32; SIDE]; WIDTHS.len()]) {
                 key: t.key,
                 flat: t.flat,
                 normal: t.normal,
+                outlier: outlier(t, guards),
             },
             _ => continue,
         };
