@@ -134,7 +134,8 @@ struct BenchArgs {
     #[arg(long = "scene", value_name = "NAME")]
     scenes: Vec<String>,
     /// Only these variants (repeatable): mis, bsdf-only, light-only,
-    /// independent, fast-math, all-cores, adaptive.
+    /// independent, fast-math, all-cores, adaptive,
+    /// denoised.
     #[arg(long = "variant", value_name = "NAME")]
     variants: Vec<String>,
     /// Highest spp of the series 1, 2, 4, … [default: 1024; quick: 128].

@@ -31,7 +31,9 @@ pub use vs_smallpt::*;
 
 use crate::image::Image;
 use crate::metrics::compare;
-use crate::render::{BudgetJob, RenderJob, load_scene, render, render_budget, resolve_threads};
+use crate::render::{
+    BudgetJob, RenderJob, load_scene, render, render_budget, render_denoised, resolve_threads,
+};
 use micropt::{AdaptiveOptions, Budget, Options, Scene, Strategy};
 use std::path::{Path, PathBuf};
 
@@ -50,6 +52,9 @@ pub struct Variant {
     /// Spread the budget where the estimated error is largest (the CLI's
     /// default allocation: biased, consistent) instead of uniformly.
     pub adaptive: bool,
+    /// Uniform samples through the core's denoiser (`micropt render
+    /// --denoise`); its time counts in the seconds.
+    pub denoise: bool,
 }
 
 /// The variants compared: the baseline (`mis`: MIS, stratified, exact math,
@@ -62,6 +67,7 @@ pub fn standard_variants() -> Vec<Variant> {
         options,
         threads,
         adaptive: false,
+        denoise: false,
     };
     vec![
         v(
@@ -113,6 +119,16 @@ pub fn standard_variants() -> Vec<Variant> {
                 "adaptive",
                 "the CLI's default allocation: samples where the estimated error is largest \
                  (biased, consistent), 1 thread",
+                base,
+                1,
+            )
+        },
+        Variant {
+            denoise: true,
+            ..v(
+                "denoised",
+                "uniform samples through the core's denoiser (--denoise), 1 thread; the \
+                 denoiser's time included",
                 base,
                 1,
             )
@@ -291,7 +307,21 @@ pub fn run_one<const S: usize, const P: usize, const M: usize>(
     spp: u32,
     seed: u64,
 ) -> Result<Run, String> {
-    let (image, stats, threads, seconds, cpu_seconds) = if variant.adaptive {
+    let (image, stats, threads, seconds, cpu_seconds) = if variant.denoise {
+        let job = RenderJob {
+            width: reference.width,
+            height: reference.height,
+            spp,
+            seed,
+            threads: variant.threads,
+            options: variant.options,
+        };
+        let cpu0 = process_cpu_seconds();
+        let out = render_denoised(scene, &job, &|| {})?;
+        let cpu = process_cpu_seconds() - cpu0;
+        let seconds = out.seconds + out.denoise_seconds;
+        (out.image, out.stats, out.threads, seconds, cpu)
+    } else if variant.adaptive {
         let job = BudgetJob {
             width: reference.width,
             height: reference.height,
