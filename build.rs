@@ -625,6 +625,7 @@ fn config_source(
          /// Adaptive allocation (false: uniform).\n\
          pub const ADAPTIVE: bool = {};\n\
          /// Denoised: uniform samples into moments, then the denoiser.\n\
+         #[allow(dead_code)] // only the single-core firmware reads it\n\
          pub const DENOISE: bool = {denoise};\n\
          /// The integrator's skip switches.\n\
          pub const SKIP: micropt::Skip = micropt::Skip {{ {skip_fields}}};\n\

@@ -211,7 +211,7 @@ impl<'a> Renderer<'a> {
     /// beforehand ([`Renderer::pixel`]`(x, y)`; the same bits).
     #[inline(always)]
     pub fn sample_in(&self, pixel: &Pixel, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
-        self.sample_parts_in(pixel, x, y, index, stats).total
+        self.sample_with::<false>(pixel, x, y, index, stats).total
     }
 
     /// [`Renderer::sample_in`] with the estimate's direct part: the light
@@ -228,10 +228,24 @@ impl<'a> Renderer<'a> {
         index: u32,
         stats: &mut Stats,
     ) -> PathSum {
+        self.sample_with::<true>(pixel, x, y, index, stats)
+    }
+
+    /// One sample, its direct part kept apart if `PARTS` (else zero: the
+    /// path loop then does not track it).
+    #[inline(always)]
+    fn sample_with<const PARTS: bool>(
+        &self,
+        pixel: &Pixel,
+        x: u32,
+        y: u32,
+        index: u32,
+        stats: &mut Stats,
+    ) -> PathSum {
         let mut s = pixel.sampler.stream(index);
         let ray = self.primary_ray(&mut s, x, y);
         #[allow(unused_mut)]
-        let mut c = integrator::radiance_planned(
+        let mut c = integrator::radiance_planned::<PARTS>(
             &self.scene,
             &self.plan,
             #[cfg(feature = "highlight")]
@@ -246,14 +260,12 @@ impl<'a> Renderer<'a> {
         if !pixel.highlights.is_empty() {
             let h = self.highlights_of(pixel, x, y, index, stats);
             c.total += h;
-            c.direct += h;
+            if PARTS {
+                c.direct += h;
+            }
         }
-        let kept = |v: Color| {
-            crate::math::abs_at_most(v.x, SAMPLE_MAX)
-                && crate::math::abs_at_most(v.y, SAMPLE_MAX)
-                && crate::math::abs_at_most(v.z, SAMPLE_MAX)
-        };
-        if kept(c.total) {
+        let kept = |v: f32| crate::math::abs_at_most(v, SAMPLE_MAX);
+        if kept(c.total.x) && kept(c.total.y) && kept(c.total.z) {
             c
         } else {
             stats.nonfinite += 1;

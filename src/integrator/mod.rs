@@ -268,7 +268,7 @@ pub fn radiance(
     stats: &mut Stats,
 ) -> Color {
     let opts = &opts.effective();
-    radiance_planned(
+    radiance_planned::<false>(
         scene,
         &PathPlan::new(scene, opts),
         #[cfg(feature = "highlight")]
@@ -284,9 +284,10 @@ pub fn radiance(
 /// [`radiance`] with the decisions of `plan`, which must be
 /// `PathPlan::new(scene, opts)`, leaving out the emission that a camera ray
 /// meets right after a mirror for the pairs of `highlights`; the estimate
-/// with its direct part ([`PathSum`]).
+/// with its direct part ([`PathSum`], kept apart only with `PARTS`: else
+/// `direct` is zero and the path loop does not track it).
 #[inline(always)]
-pub(crate) fn radiance_planned(
+pub(crate) fn radiance_planned<const PARTS: bool>(
     scene: &SceneView<'_>,
     plan: &PathPlan<'_>,
     #[cfg(feature = "highlight")] highlights: Option<&crate::highlight::Highlights>,
@@ -316,10 +317,10 @@ pub(crate) fn radiance_planned(
     #[cfg(not(feature = "tunable"))]
     let opts = &fixed;
     match (many, tree) {
-        (true, false) => trace::<true, false>(&ctx, ray, stream, opts, stats),
-        (false, false) => trace::<false, false>(&ctx, ray, stream, opts, stats),
-        (true, true) => trace::<true, true>(&ctx, ray, stream, opts, stats),
-        (false, true) => trace::<false, true>(&ctx, ray, stream, opts, stats),
+        (true, false) => trace::<true, false, PARTS>(&ctx, ray, stream, opts, stats),
+        (false, false) => trace::<false, false, PARTS>(&ctx, ray, stream, opts, stats),
+        (true, true) => trace::<true, true, PARTS>(&ctx, ray, stream, opts, stats),
+        (false, true) => trace::<false, true, PARTS>(&ctx, ray, stream, opts, stats),
     }
 }
 
