@@ -123,19 +123,48 @@ impl Guide {
     };
 }
 
+/// The lens points whose rays must agree with the centre's for a thin-lens
+/// pixel to be filtered: the rim of the lens disk at four quarters (the
+/// concentric map's edge midpoints).
+#[cfg(feature = "lens")]
+const LENS_RIM: [[f32; 2]; 4] = [[0.999_999, 0.5], [0.0, 0.5], [0.5, 0.999_999], [0.5, 0.0]];
+
 /// The guide of pixel (x, y): the centre ray (through the lens's centre,
 /// for a thin lens) followed through up to [`GUIDE_DEPTH`] mirror and glass
 /// vertices to its first non-delta surface. Deterministic: no random
 /// numbers.
+///
+/// With a thin lens the pixel's samples come from the whole lens, and out
+/// of focus they see more than the centre ray does: a pixel where the rays
+/// from the lens's rim reach another object chain than the centre's (the
+/// blurred edge of a defocused object) is left unfiltered, its guide's
+/// albedo and normal kept for the guide images.
+pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
+    let (fx, fy) = (x as f32 + 0.5, y as f32 + 0.5);
+    let g = guide_along(renderer, renderer.camera().ray(fx, fy));
+    #[cfg(feature = "lens")]
+    if g.kind == GuideKind::Surface && renderer.camera().has_lens() {
+        for lens in LENS_RIM {
+            if guide_along(renderer, renderer.camera().lens_ray(fx, fy, lens)).key != g.key {
+                return Guide {
+                    kind: GuideKind::Keep,
+                    ..g
+                };
+            }
+        }
+    }
+    g
+}
+
+/// [`guide`] along one camera ray.
 // a build without mirror and glass has no delta vertex: the loop's first
 // vertex always returns
 #[cfg_attr(
     not(any(feature = "mirror", feature = "glass")),
     allow(unreachable_code, unused_mut, unused_variables)
 )]
-pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
+fn guide_along(renderer: &Renderer<'_>, mut ray: Ray) -> Guide {
     let scene = renderer.scene();
-    let mut ray: Ray = renderer.camera().ray(x as f32 + 0.5, y as f32 + 0.5);
     let mut from = ObjectId::NONE;
     let mut tint = Color::ONE;
     let mut key: u32 = 0x9e37_79b9;
