@@ -268,7 +268,7 @@ pub fn radiance(
     stats: &mut Stats,
 ) -> Color {
     let opts = &opts.effective();
-    radiance_planned::<false>(
+    radiance_planned(
         scene,
         &PathPlan::new(scene, opts),
         #[cfg(feature = "highlight")]
@@ -284,10 +284,9 @@ pub fn radiance(
 /// [`radiance`] with the decisions of `plan`, which must be
 /// `PathPlan::new(scene, opts)`, leaving out the emission that a camera ray
 /// meets right after a mirror for the pairs of `highlights`; the estimate
-/// with its direct part ([`PathSum`], kept apart only with `PARTS`: else
-/// `direct` is zero and the path loop does not track it).
+/// with its direct part ([`PathSum`]).
 #[inline(always)]
-pub(crate) fn radiance_planned<const PARTS: bool>(
+pub(crate) fn radiance_planned(
     scene: &SceneView<'_>,
     plan: &PathPlan<'_>,
     #[cfg(feature = "highlight")] highlights: Option<&crate::highlight::Highlights>,
@@ -317,10 +316,10 @@ pub(crate) fn radiance_planned<const PARTS: bool>(
     #[cfg(not(feature = "tunable"))]
     let opts = &fixed;
     match (many, tree) {
-        (true, false) => trace::<true, false, PARTS>(&ctx, ray, stream, opts, stats),
-        (false, false) => trace::<false, false, PARTS>(&ctx, ray, stream, opts, stats),
-        (true, true) => trace::<true, true, PARTS>(&ctx, ray, stream, opts, stats),
-        (false, true) => trace::<false, true, PARTS>(&ctx, ray, stream, opts, stats),
+        (true, false) => trace::<true, false>(&ctx, ray, stream, opts, stats),
+        (false, false) => trace::<false, false>(&ctx, ray, stream, opts, stats),
+        (true, true) => trace::<true, true>(&ctx, ray, stream, opts, stats),
+        (false, true) => trace::<false, true>(&ctx, ray, stream, opts, stats),
     }
 }
 

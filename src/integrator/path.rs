@@ -51,14 +51,14 @@ use crate::stats::Stats;
 /// estimated by one path (and, where it splits at glass, its second
 /// branch).
 #[inline(always)]
-pub(super) fn trace<const MANY: bool, const TREE: bool, const PARTS: bool>(
+pub(super) fn trace<const MANY: bool, const TREE: bool>(
     ctx: &Ctx<'_, '_>,
     ray: Ray,
     stream: &mut SampleStream<'_>,
     opts: &Options,
     stats: &mut Stats,
 ) -> PathSum {
-    let mut path = PathState::<PARTS>::new(ctx.scene, ray, opts);
+    let mut path = PathState::new(ctx.scene, ray, opts);
     loop {
         while path.vertex::<MANY, TREE>(ctx, stream, opts, stats) {}
         if !path.resume_split() {
@@ -116,14 +116,13 @@ pub struct PathSum {
     /// to the camera or through mirrors and glass only: a light seen
     /// directly, its image in a mirror ball or through a glass ball. A
     /// denoiser keeps it out of its filter (it is sharp, and most of it has
-    /// no noise). Zero where the render does not ask for it (the path
-    /// loop then does not track it).
+    /// no noise); callers that do not split the estimate ignore it, and the
+    /// compiler drops its arithmetic.
     pub direct: Color,
 }
 
-/// One path between its vertices; `PARTS`: whether it keeps its direct
-/// part apart (only the denoiser's renders pay for it).
-struct PathState<'a, const PARTS: bool> {
+/// One path between its vertices.
+struct PathState<'a> {
     /// The radiance gathered so far: the estimate of `L` along the camera
     /// ray.
     l: Color,
@@ -167,7 +166,7 @@ struct PathState<'a, const PARTS: bool> {
     pending: Option<Branch>,
 }
 
-impl<'a, const PARTS: bool> PathState<'a, PARTS> {
+impl<'a> PathState<'a> {
     /// A path that starts along the camera ray `ray`.
     #[inline(always)]
     fn new(scene: &SceneView<'a>, ray: Ray, opts: &Options) -> Self {
@@ -357,9 +356,7 @@ impl<'a, const PARTS: bool> PathState<'a, PARTS> {
         opts: &Options,
     ) -> bool {
         self.forbid_split();
-        if PARTS {
-            self.scattered = true;
-        }
+        self.scattered = true;
         let at = Vertex {
             hit,
             n: if math::lt_zero(self.ray.dir.dot(hit.normal)) {
@@ -713,9 +710,7 @@ impl<'a, const PARTS: bool> PathState<'a, PARTS> {
             self.from = b.from;
             self.last = Last::Eye;
             // a path splits only before its first non-delta vertex
-            if PARTS {
-                self.scattered = false;
-            }
+            self.scattered = false;
             self.bounces += 1;
             return true;
         }
@@ -752,7 +747,7 @@ impl<'a, const PARTS: bool> PathState<'a, PARTS> {
     #[inline(always)]
     fn add(&mut self, c: Color) {
         self.l += c;
-        if PARTS && !self.scattered {
+        if !self.scattered {
             self.direct += c;
         }
     }
