@@ -18,6 +18,7 @@
 #                                      16-spp M33 frame (about a minute)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+. .ci/qemu-arm.sh
 . .ci/elf.sh
 
 BLESS=0
@@ -37,14 +38,7 @@ fail() {
 nstep() { printf '\n---- denoise: %s (%ss)\n' "$*" "$SECONDS"; }
 
 nstep "install qemu-system-arm and gcc if missing (when run alone)"
-SUDO=""
-if [ "$(id -u)" != 0 ] && command -v sudo >/dev/null; then SUDO=sudo; fi
-if ! command -v qemu-system-arm >/dev/null || ! command -v gcc >/dev/null; then
-    $SUDO apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
-        qemu-system-arm binutils-arm-none-eabi gcc libc6-dev >/dev/null
-fi
-rustup target add "$TARGET" >/dev/null
+install_qemu_arm "$TARGET"
 
 nstep "instruction-count plugin, host CLI"
 gcc -O2 -Wall -Wextra -Werror -shared -fPIC -o "$OUT/libicount.so" tools/qemu-icount/icount.c

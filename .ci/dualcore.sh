@@ -20,6 +20,7 @@
 #    its condition.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+. .ci/qemu-arm.sh
 
 BLESS=0
 if [ "${1:-}" = "--bless" ]; then BLESS=1; fi
@@ -42,14 +43,7 @@ fail() {
     exit 1
 }
 
-SUDO=""
-if [ "$(id -u)" != 0 ] && command -v sudo >/dev/null; then SUDO=sudo; fi
-if ! command -v qemu-system-arm >/dev/null || ! command -v gcc >/dev/null; then
-    $SUDO apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
-        qemu-system-arm binutils-arm-none-eabi gcc libc6-dev >/dev/null
-fi
-rustup target add "$TARGET" >/dev/null
+install_qemu_arm "$TARGET"
 
 dstep "instruction-count plugin"
 gcc -O2 -Wall -Wextra -Werror -shared -fPIC -o "$OUT/libicount.so" tools/qemu-icount/icount.c
