@@ -368,6 +368,7 @@ fn render_denoised(
         config::SPP,
         &mut dn.ring,
         &mut dn.candidates,
+        |_, _, _| {},
         |y, x, c| {
             let colour = Rgb565::from_encoded(micropt::film::tone_map(c, EXPOSURE), x, y);
             fb.set_pixel(Point::new(x as i32, y as i32), colour);

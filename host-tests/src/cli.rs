@@ -365,6 +365,18 @@ fn output_or_default(output: Option<PathBuf>, scene: &std::path::Path, suffix: &
     })
 }
 
+impl RenderArgs {
+    /// The integrator options the flags choose.
+    fn options(&self) -> Options {
+        Options {
+            skip: self.no_skip.unwrap_or(Skip::ALL),
+            strategy: self.strategy,
+            highlights: !self.no_highlights,
+            ..Options::default()
+        }
+    }
+}
+
 fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
     let output = output_or_default(a.output.clone(), &a.scene, ".png");
     // check the extension before spending time on the render
@@ -396,12 +408,7 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
         budget,
         seed: a.frame.seed,
         threads: a.frame.threads.map_or(0, |t| t as usize),
-        options: Options {
-            skip: a.no_skip.unwrap_or(Skip::ALL),
-            strategy: a.strategy,
-            highlights: !a.no_highlights,
-            ..Options::default()
-        },
+        options: a.options(),
         adaptive: AdaptiveOptions {
             adaptive: !a.uniform,
             ..AdaptiveOptions::default()
@@ -498,12 +505,7 @@ fn render_denoised_to(
         spp: a.spp.unwrap_or(64),
         seed: a.frame.seed,
         threads: a.frame.threads.map_or(0, |t| t as usize),
-        options: Options {
-            skip: a.no_skip.unwrap_or(Skip::ALL),
-            strategy: a.strategy,
-            highlights: !a.no_highlights,
-            ..Options::default()
-        },
+        options: a.options(),
     };
     let out = render_denoised(scene, &job, &|| {})?;
     let image = if a.denoise { &out.image } else { &out.raw };

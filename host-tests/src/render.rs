@@ -147,6 +147,22 @@ fn parallel_tiles(n: usize, threads: usize, work: &(dyn Fn(usize) + Sync)) {
     });
 }
 
+/// The renderer of `job` (its size checked against the format's limits,
+/// at least one sample per pixel).
+fn job_renderer<'a, const S: usize, const P: usize, const M: usize>(
+    scene: &'a Scene<S, P, M>,
+    job: &RenderJob,
+) -> Result<Renderer<'a>, String> {
+    check_size(job.width, job.height)?;
+    if job.spp == 0 {
+        return Err("--spp must be at least 1".into());
+    }
+    Ok(Renderer::new(scene, job.width, job.height)
+        .map_err(|e| format!("camera: {e:?}"))?
+        .seed(job.seed)
+        .options(job.options))
+}
+
 /// Renders `scene` as `job` says, calling `on_tile` after every finished
 /// tile. The image is bit-identical for any number of threads: every pixel
 /// depends only on (scene, size, spp, seed, options).
@@ -155,14 +171,7 @@ pub fn render<const S: usize, const P: usize, const M: usize>(
     job: &RenderJob,
     on_tile: &(dyn Fn() + Sync),
 ) -> Result<RenderOutput, String> {
-    check_size(job.width, job.height)?;
-    if job.spp == 0 {
-        return Err("--spp must be at least 1".into());
-    }
-    let renderer = Renderer::new(scene, job.width, job.height)
-        .map_err(|e| format!("camera: {e:?}"))?
-        .seed(job.seed)
-        .options(job.options);
+    let renderer = job_renderer(scene, job)?;
     let n = tile_count(job.width, job.height);
     let threads = resolve_threads(job.threads).min(n).max(1);
     let image = Mutex::new(Image::new(job.width, job.height));
@@ -411,14 +420,7 @@ pub fn render_denoised<const S: usize, const P: usize, const M: usize>(
     on_row: &(dyn Fn() + Sync),
 ) -> Result<DenoisedOutput, String> {
     use micropt::denoise::{self, Candidate, Moments, Texel};
-    check_size(job.width, job.height)?;
-    if job.spp == 0 {
-        return Err("--spp must be at least 1".into());
-    }
-    let renderer = Renderer::new(scene, job.width, job.height)
-        .map_err(|e| format!("camera: {e:?}"))?
-        .seed(job.seed)
-        .options(job.options);
+    let renderer = job_renderer(scene, job)?;
     let (w, h) = (job.width as usize, job.height as usize);
     let threads = resolve_threads(job.threads).min(h).max(1);
     let rows: Vec<Mutex<Vec<Moments>>> = (0..h).map(|_| Mutex::new(Vec::new())).collect();
@@ -451,6 +453,8 @@ pub fn render_denoised<const S: usize, const P: usize, const M: usize>(
         .collect();
     let start = Instant::now();
     let mut image = Image::new(job.width, job.height);
+    let mut albedo = Image::new(job.width, job.height);
+    let mut normal = Image::new(job.width, job.height);
     let mut ring = vec![Texel::kept(Color::ZERO); denoise::ring_len(w)];
     let mut cand = vec![Candidate::ZERO; denoise::candidates_len(w)];
     denoise::denoise_moments(
@@ -459,21 +463,17 @@ pub fn render_denoised<const S: usize, const P: usize, const M: usize>(
         job.spp,
         &mut ring,
         &mut cand,
+        |x, y, g| {
+            albedo.set(x, y, g.albedo);
+            normal.set(x, y, g.normal);
+        },
         |y, x, c| image.set(x, y, c),
     )
     .map_err(|e| format!("denoise: {e}"))?;
     let denoise_seconds = start.elapsed().as_secs_f64();
     let mut raw = Image::new(job.width, job.height);
-    let mut albedo = Image::new(job.width, job.height);
-    let mut normal = Image::new(job.width, job.height);
-    for y in 0..job.height {
-        for x in 0..job.width {
-            let i = y as usize * w + x as usize;
-            raw.set(x, y, moments[i].mean(job.spp));
-            let g = denoise::guide(&renderer, x, y);
-            albedo.set(x, y, g.albedo);
-            normal.set(x, y, g.normal);
-        }
+    for (px, m) in raw.pixels.iter_mut().zip(&moments) {
+        *px = m.mean(job.spp);
     }
     Ok(DenoisedOutput {
         image,

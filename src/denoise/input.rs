@@ -98,8 +98,6 @@ pub struct Guide {
     pub albedo: Color,
     /// The unit shading normal, toward the ray (OIDN's world-space normal).
     pub normal: Vec3,
-    /// The hit point.
-    pub point: Vec3,
     /// The objects along the way (the mirrors and glass, then the surface),
     /// hashed: two pixels are filtered together only where it is equal.
     pub key: u32,
@@ -116,7 +114,6 @@ impl Guide {
         kind: GuideKind::Keep,
         albedo: Color::ZERO,
         normal: Vec3::ZERO,
-        point: Vec3::ZERO,
         key: 0,
         deltas: 0,
         flat: false,
@@ -186,7 +183,6 @@ fn guide_along(renderer: &Renderer<'_>, mut ray: Ray) -> Guide {
             kind: GuideKind::Surface,
             albedo: tint * albedo,
             normal: n,
-            point: hit.point,
             key,
             deltas,
             flat: hit.object.as_plane().is_some(),

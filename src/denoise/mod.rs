@@ -139,9 +139,10 @@ impl Texel {
     pub fn new(m: &Moments, n: u32, g: &Guide) -> Self {
         let nf = n.max(1) as f32;
         let inv = 1.0 / nf;
-        let scattered = Color::new(m.scattered[0], m.scattered[1], m.scattered[2]) * inv;
+        let scattered_sum = Color::new(m.scattered[0], m.scattered[1], m.scattered[2]);
+        let scattered = scattered_sum * inv;
         let direct = Color::new(m.direct[0], m.direct[1], m.direct[2]) * inv;
-        let sum = Color::new(m.scattered[0], m.scattered[1], m.scattered[2]).luminance();
+        let sum = scattered_sum.luminance();
         // (Σl² − (Σl)²/n) / (n (n − 1)): the variance of the mean of n
         // independent samples
         let iid = if n >= 2 {
@@ -658,15 +659,17 @@ fn across(row: &mut [Texel], weights: &[[f32; SIDE]; WIDTHS.len()], guards: Guar
 }
 
 /// Denoises a whole frame whose samples are summed in `moments` (row-major,
-/// `n` samples a pixel), its guides computed by [`guide`] row by row:
-/// `emit(y, x, colour)` receives each output pixel. The workspace is as
-/// for [`Denoiser::new`].
+/// `n` samples a pixel), its guides computed by [`guide`] row by row and
+/// shown to `on_guide(x, y, guide)` (the host's guide images; a firmware
+/// passes a closure that does nothing): `emit(y, x, colour)` receives each
+/// output pixel. The workspace is as for [`Denoiser::new`].
 pub fn denoise_moments(
     renderer: &crate::render::Renderer<'_>,
     moments: &[Moments],
     n: u32,
     ring: &mut [Texel],
     row: &mut [Candidate],
+    mut on_guide: impl FnMut(u32, u32, &Guide),
     emit: impl FnMut(u32, u32, Color),
 ) -> Result<(), DenoiseError> {
     let (w, h) = (renderer.width(), renderer.height());
@@ -679,7 +682,9 @@ pub fn denoise_moments(
             let start = y as usize * w as usize;
             let row = moments.get(start..).unwrap_or(&[]);
             for (x, (t, m)) in texels.iter_mut().zip(row).enumerate() {
-                *t = Texel::new(m, n, &guide(renderer, x as u32, y));
+                let g = guide(renderer, x as u32, y);
+                on_guide(x as u32, y, &g);
+                *t = Texel::new(m, n, &g);
             }
         },
         emit,

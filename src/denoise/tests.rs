@@ -17,7 +17,6 @@ fn wall(a: Color, s: Color, v: f32, key: u32) -> Texel {
         kind: GuideKind::Surface,
         albedo: a,
         normal: Vec3::new(0.0, 0.0, 1.0),
-        point: Vec3::ZERO,
         key,
         deltas: 0,
         flat: true,
@@ -49,6 +48,17 @@ fn run(img: &[Texel], guards: Guards) -> [[Color; W]; H] {
         |y, x, c| out[y as usize][x as usize] = c,
     );
     out
+}
+
+/// The image unfiltered (each texel's raw value).
+fn raw_of(img: &[Texel]) -> [[Color; W]; H] {
+    let mut raw = [[Color::ZERO; W]; H];
+    for y in 0..H {
+        for x in 0..W {
+            raw[y][x] = img[y * W + x].raw();
+        }
+    }
+    raw
 }
 
 /// Gaussian noise from a seeded generator (Box–Muller through the math
@@ -219,7 +229,6 @@ fn a_light_seen_directly_is_kept_and_the_rest_filtered() {
         kind: GuideKind::Surface,
         albedo: Color::splat(0.5),
         normal: Vec3::new(0.0, 0.0, 1.0),
-        point: Vec3::ZERO,
         key: 1,
         deltas,
         flat: true,
@@ -270,12 +279,7 @@ fn without_no_filter_as_a_choice_the_error_rises_above_the_raw_image() {
     // sharp ridges with little noise: every filter's bias exceeds the noise
     // it removes, so the choice must be able to say "no filter"
     let (img, truth) = ramp_wall(5);
-    let mut raw = [[Color::ZERO; W]; H];
-    for y in 0..H {
-        for x in 0..W {
-            raw[y][x] = img[y * W + x].raw();
-        }
-    }
+    let raw = raw_of(&img);
     let raw = mse(&raw, &truth);
     let with = mse(&run(&img, Guards::default()), &truth);
     let without = mse(
@@ -367,12 +371,7 @@ fn without_the_consistency_guard_a_noisy_neighbourhood_chooses_a_blur_for_a_quie
             ..Guards::default()
         },
     ));
-    let mut raw = [[Color::ZERO; W]; H];
-    for y in 0..H {
-        for x in 0..W {
-            raw[y][x] = img[y * W + x].raw();
-        }
-    }
+    let raw = raw_of(&img);
     let raw = line(&raw);
     assert!(
         with <= 2.0 * raw + 1e-9,

@@ -307,48 +307,36 @@ pub fn run_one<const S: usize, const P: usize, const M: usize>(
     spp: u32,
     seed: u64,
 ) -> Result<Run, String> {
-    let (image, stats, threads, seconds, cpu_seconds) = if variant.denoise {
-        let job = RenderJob {
-            width: reference.width,
-            height: reference.height,
-            spp,
-            seed,
-            threads: variant.threads,
-            options: variant.options,
-        };
-        let cpu0 = process_cpu_seconds();
+    let job = RenderJob {
+        width: reference.width,
+        height: reference.height,
+        spp,
+        seed,
+        threads: variant.threads,
+        options: variant.options,
+    };
+    let cpu0 = process_cpu_seconds();
+    let (image, stats, threads, seconds) = if variant.denoise {
         let out = render_denoised(scene, &job, &|| {})?;
-        let cpu = process_cpu_seconds() - cpu0;
         let seconds = out.seconds + out.denoise_seconds;
-        (out.image, out.stats, out.threads, seconds, cpu)
+        (out.image, out.stats, out.threads, seconds)
     } else if variant.adaptive {
-        let job = BudgetJob {
-            width: reference.width,
-            height: reference.height,
+        let budget_job = BudgetJob {
+            width: job.width,
+            height: job.height,
             budget: Budget::Spp(spp),
             seed,
-            threads: variant.threads,
-            options: variant.options,
+            threads: job.threads,
+            options: job.options,
             adaptive: AdaptiveOptions::default(),
         };
-        let cpu0 = process_cpu_seconds();
-        let out = render_budget(scene, &job, &|| {})?;
-        let cpu = process_cpu_seconds() - cpu0;
-        (out.image, out.stats, out.threads, out.seconds, cpu)
+        let out = render_budget(scene, &budget_job, &|| {})?;
+        (out.image, out.stats, out.threads, out.seconds)
     } else {
-        let job = RenderJob {
-            width: reference.width,
-            height: reference.height,
-            spp,
-            seed,
-            threads: variant.threads,
-            options: variant.options,
-        };
-        let cpu0 = process_cpu_seconds();
         let out = render(scene, &job, &|| {})?;
-        let cpu = process_cpu_seconds() - cpu0;
-        (out.image, out.stats, out.threads, out.seconds, cpu)
+        (out.image, out.stats, out.threads, out.seconds)
     };
+    let cpu_seconds = process_cpu_seconds() - cpu0;
     let e = compare(&image, reference)?;
     Ok(Run {
         scene: scene_name.to_owned(),
