@@ -57,7 +57,7 @@ use embedded_graphics::framebuffer::{Framebuffer, buffer_size};
 use embedded_graphics::pixelcolor::Rgb565;
 use embedded_graphics::pixelcolor::raw::{BigEndian, RawU16};
 use micropt::budget::{Summary, TileAccum, render_budget};
-use micropt::denoise::{self, Candidate, Moments, Texel};
+use micropt::denoise::{self, Column, Moments};
 use micropt::film::FromEncoded;
 use micropt::{AdaptiveOptions, Budget, Options, Renderer, Scene, math};
 #[cfg(target_arch = "riscv32")]
@@ -113,20 +113,18 @@ const DENOISE_COLUMNS: usize = if config::DENOISE { WIDTH } else { 0 };
 
 /// What `MICROPT_FW_DENOISE=1` adds to static RAM: every pixel's sample
 /// moments (so that the render and the denoiser are separate phases, each
-/// counted between its marks), and the denoiser's two rings of rows. A
-/// board that streams (renders each row as the ring needs it) keeps only
-/// the rings.
+/// counted between its marks), and the denoiser's rings of rows (one
+/// `Column` a pixel of a row). A board that streams (renders each pixel as
+/// the rings need it: `denoise::denoise_with`) keeps only the rings.
 struct DenoiseMemory {
     moments: [Moments; MOMENT_PIXELS],
-    ring: [Texel; denoise::RING_ROWS * DENOISE_COLUMNS],
-    candidates: [Candidate; denoise::CHOICE_ROWS * DENOISE_COLUMNS],
+    columns: [Column; DENOISE_COLUMNS],
 }
 
 impl DenoiseMemory {
     const EMPTY: Self = Self {
         moments: [Moments::ZERO; MOMENT_PIXELS],
-        ring: [Texel::kept(micropt::Vec3::ZERO); denoise::RING_ROWS * DENOISE_COLUMNS],
-        candidates: [Candidate::ZERO; denoise::CHOICE_ROWS * DENOISE_COLUMNS],
+        columns: [Column::EMPTY; DENOISE_COLUMNS],
     };
 }
 
@@ -366,8 +364,7 @@ fn render_denoised(
         renderer,
         &dn.moments,
         config::SPP,
-        &mut dn.ring,
-        &mut dn.candidates,
+        &mut dn.columns,
         |_, _, _| {},
         |y, x, c| {
             let colour = Rgb565::from_encoded(micropt::film::tone_map(c, EXPOSURE), x, y);

@@ -419,7 +419,7 @@ pub fn render_denoised<const S: usize, const P: usize, const M: usize>(
     job: &RenderJob,
     on_row: &(dyn Fn() + Sync),
 ) -> Result<DenoisedOutput, String> {
-    use micropt::denoise::{self, Candidate, Moments, Texel};
+    use micropt::denoise::{self, Column, Moments};
     let renderer = job_renderer(scene, job)?;
     let (w, h) = (job.width as usize, job.height as usize);
     let threads = resolve_threads(job.threads).min(h).max(1);
@@ -455,14 +455,12 @@ pub fn render_denoised<const S: usize, const P: usize, const M: usize>(
     let mut image = Image::new(job.width, job.height);
     let mut albedo = Image::new(job.width, job.height);
     let mut normal = Image::new(job.width, job.height);
-    let mut ring = vec![Texel::kept(Color::ZERO); denoise::ring_len(w)];
-    let mut cand = vec![Candidate::ZERO; denoise::candidates_len(w)];
+    let mut columns = vec![Column::EMPTY; w];
     denoise::denoise_moments(
         &renderer,
         &moments,
         job.spp,
-        &mut ring,
-        &mut cand,
+        &mut columns,
         |x, y, g| {
             albedo.set(x, y, g.albedo);
             normal.set(x, y, g.normal);

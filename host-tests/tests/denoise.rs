@@ -65,6 +65,54 @@ fn the_denoised_image_does_not_depend_on_the_threads() {
     }
 }
 
+#[test]
+fn rendering_each_pixel_as_the_denoiser_asks_gives_the_whole_frames_bits() {
+    // a board keeps no frame of moments: `denoise_with` renders each pixel
+    // when the rings need it. Same samples, same sums, same filter: the
+    // same bits as the host's whole-frame path
+    use micropt::denoise::{self, Column, Moments};
+    for name in ["cornell", "dof", "many"] {
+        let (w, h, spp, seed) = (37, 23, 8, 5);
+        let whole = denoised(name, w, h, spp, seed, 2);
+        let scene = load_scene(&scenes_dir().join(format!("{name}.scene"))).unwrap();
+        let renderer = micropt::Renderer::new(&scene, w, h).unwrap().seed(seed);
+        let mut columns = vec![Column::EMPTY; w as usize];
+        let mut streamed = Image::new(w, h);
+        let mut stats = micropt::Stats::default();
+        let mut order = Vec::new();
+        denoise::denoise_with(
+            &renderer,
+            |x, y| {
+                order.push((y, x));
+                let pixel = renderer.pixel(x, y);
+                let mut m = Moments::ZERO;
+                for k in 0..spp {
+                    m.add(
+                        renderer.sample_parts_in(&pixel, x, y, k, &mut stats),
+                        k < spp / 2,
+                    );
+                }
+                m
+            },
+            spp,
+            &mut columns,
+            |_, _, _| {},
+            |y, x, c| streamed.set(x, y, c),
+        )
+        .unwrap();
+        // each pixel asked for once, row by row
+        let expected: Vec<(u32, u32)> = (0..h).flat_map(|y| (0..w).map(move |x| (y, x))).collect();
+        assert_eq!(order, expected, "{name}");
+        let bits = |i: &Image| -> Vec<u32> {
+            i.pixels
+                .iter()
+                .flat_map(|c| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()])
+                .collect()
+        };
+        assert_eq!(bits(&streamed), bits(&whole.image), "{name}");
+    }
+}
+
 /// Denoised and raw MSE against the reference at `spp`, seed 0: the
 /// denoised may not be above the raw. MSE against a reference is the true
 /// MSE plus the reference's own noise (the same for both) plus a cross

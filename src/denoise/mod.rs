@@ -32,10 +32,16 @@
 //! their centre sees a surface (a light's edge) are left as rendered and
 //! are nobody's tap.
 //!
-//! Memory: a ring of [`RING_ROWS`] rows of [`Texel`]s and one of
-//! [`CHOICE_ROWS`] rows of [`Candidate`]s ([`workspace_bytes`]); the rows are filled on demand, so
-//! a renderer can render a band at a time (the firmware), or read them
-//! from whole-frame [`Moments`] (the host).
+//! Memory: one [`Column`] per pixel of a row ([`workspace_bytes`]), each
+//! holding that column's rings of rows: what a pixel's neighbours read of
+//! it as a tap for the [`RING_ROWS`] rows of the column pass, what only
+//! its own candidates read for the [`RADIUS`] + 1 rows until they are
+//! computed, its outputs for the [`CHOICE_RADIUS`] + 1 rows until its
+//! choice, and the SURE sums of the [`CHOICE_ROWS`] rows the choice adds.
+//! Pixels are filled on demand, row by row ([`Denoiser::run`]'s `fill`), so
+//! a board renders each pixel as the denoiser needs it and keeps no frame
+//! ([`denoise_with`]); the host reads whole-frame [`Moments`]
+//! ([`denoise_moments`]).
 
 mod input;
 #[cfg(test)]
@@ -89,9 +95,8 @@ pub struct Texel {
     pub scattered: Color,
     /// Mean direct radiance (kept as rendered).
     pub direct: Color,
-    /// The scattered radiance divided by the albedo (what is averaged).
-    pub shade: Color,
-    /// The guide's albedo (what is multiplied back).
+    /// The guide's albedo (divided out before the filter, multiplied back
+    /// after).
     pub albedo: Color,
     /// The guide's normal.
     pub normal: Vec3,
@@ -108,12 +113,6 @@ pub struct Texel {
     pub filtered: bool,
     /// Whether its surface is a plane ([`Guide::flat`]).
     pub flat: bool,
-    /// Each filter's pass along the row: the weighted mean of the `shade`
-    /// of the similar pixels within its reach in the row.
-    pub across: [Color; WIDTHS.len()],
-    /// Each row pass's weight on the pixel itself over its weights' sum
-    /// (its derivative with respect to the pixel's own value).
-    pub own: [f32; WIDTHS.len()],
 }
 
 impl Texel {
@@ -122,7 +121,6 @@ impl Texel {
         Self {
             scattered: Color::ZERO,
             direct: c,
-            shade: Color::ZERO,
             albedo: Color::ZERO,
             normal: Vec3::ZERO,
             variance: 0.0,
@@ -130,8 +128,6 @@ impl Texel {
             key: 0,
             filtered: false,
             flat: false,
-            across: [Color::ZERO; WIDTHS.len()],
-            own: [0.0; WIDTHS.len()],
         }
     }
 
@@ -172,15 +168,9 @@ impl Texel {
         if !filtered {
             return Self::kept(scattered + direct);
         }
-        let div = |s: f32, a: f32| s / math::max(a, MIN_ALBEDO);
         Self {
             scattered,
             direct,
-            shade: Color::new(
-                div(scattered.x, g.albedo.x),
-                div(scattered.y, g.albedo.y),
-                div(scattered.z, g.albedo.z),
-            ),
             albedo: g.albedo,
             normal: g.normal,
             variance,
@@ -188,8 +178,6 @@ impl Texel {
             key: g.key,
             filtered: true,
             flat: g.flat,
-            across: [Color::ZERO; WIDTHS.len()],
-            own: [0.0; WIDTHS.len()],
         }
     }
 
@@ -197,63 +185,132 @@ impl Texel {
     pub fn raw(&self) -> Color {
         self.scattered + self.direct
     }
+
+    /// The scattered radiance divided by the albedo (what the filters
+    /// average).
+    fn shade(&self) -> Color {
+        let div = |s: f32, a: f32| s / math::max(a, MIN_ALBEDO);
+        Color::new(
+            div(self.scattered.x, self.albedo.x),
+            div(self.scattered.y, self.albedo.y),
+            div(self.scattered.z, self.albedo.z),
+        )
+    }
 }
 
-/// One pixel's candidates, kept until its choice: what each filter gives,
-/// each one's SURE, and what the pixel is without a filter.
+/// What a pixel's neighbours read of it as a tap (kept for the
+/// [`RING_ROWS`] rows of the column pass): its row passes and what the
+/// similarity test reads.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Candidate {
-    /// Each filter's scattered radiance.
-    pub filtered: [Color; WIDTHS.len()],
-    /// Each filter's SURE, and "no filter"'s last (0 for a pixel left as
-    /// rendered, which no choice counts).
-    pub sure: [f32; WIDTHS.len() + 1],
-    /// The same summed over the pixels within [`CHOICE_RADIUS`] in the row
-    /// (once per row, so that the choice adds rows, not pixels).
-    pub row_sure: [f32; WIDTHS.len() + 1],
-    /// The pixel's own scattered mean.
-    pub scattered: Color,
-    /// The pixel's direct mean (added to whatever is chosen).
-    pub direct: Color,
-    /// The variance of the pixel's scattered mean (luminance) as if its
-    /// samples were independent (the consistency guard's scale).
-    pub variance: f32,
-    /// Whether the pixel is filtered (else it is emitted as rendered).
-    pub filtered_pixel: bool,
+struct Tap {
+    /// Each filter's pass along the row: the weighted mean of the shade of
+    /// the similar pixels within its reach in the row.
+    across: [Color; WIDTHS.len()],
+    normal: Vec3,
+    spread: f32,
+    key: u32,
+    filtered: bool,
+    flat: bool,
 }
 
-impl Candidate {
-    /// Nothing yet.
-    pub const ZERO: Self = Self {
-        filtered: [Color::ZERO; WIDTHS.len()],
-        sure: [0.0; WIDTHS.len() + 1],
-        row_sure: [0.0; WIDTHS.len() + 1],
-        scattered: Color::ZERO,
-        direct: Color::ZERO,
-        variance: 0.0,
-        filtered_pixel: false,
+impl Tap {
+    const NONE: Self = Self {
+        across: [Color::ZERO; WIDTHS.len()],
+        normal: Vec3::ZERO,
+        spread: 0.0,
+        key: 0,
+        filtered: false,
+        flat: false,
     };
 }
 
-/// Rows of candidates a denoiser keeps: the row being chosen and
+/// What only the pixel's own candidates read (kept from its fill to its
+/// candidates: [`RADIUS`] + 1 rows).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Centre {
+    scattered: Color,
+    direct: Color,
+    albedo: Color,
+    variance: f32,
+    /// Each row pass's weight on the pixel itself over its weights' sum
+    /// (its derivative with respect to the pixel's own value).
+    own: [f32; WIDTHS.len()],
+}
+
+impl Centre {
+    const NONE: Self = Self {
+        scattered: Color::ZERO,
+        direct: Color::ZERO,
+        albedo: Color::ZERO,
+        variance: 0.0,
+        own: [0.0; WIDTHS.len()],
+    };
+}
+
+/// One pixel's outputs, kept from its candidates to its choice
+/// ([`CHOICE_RADIUS`] + 1 rows): each filter's and "no filter"'s, the
+/// direct part added.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Choice {
+    /// Each filter's output, then the pixel as rendered.
+    out: [Color; WIDTHS.len() + 1],
+    /// Whether each filter passes the consistency guard here.
+    consistent: [bool; WIDTHS.len()],
+    /// Whether the pixel is filtered (else it is emitted as rendered).
+    filtered: bool,
+}
+
+impl Choice {
+    const NONE: Self = Self {
+        out: [Color::ZERO; WIDTHS.len() + 1],
+        consistent: [false; WIDTHS.len()],
+        filtered: false,
+    };
+}
+
+/// Rows of SURE sums a denoiser keeps: the row being chosen and
 /// [`CHOICE_RADIUS`] either side.
 pub const CHOICE_ROWS: usize = 2 * CHOICE_RADIUS + 1;
+/// Rows whose centre data a denoiser keeps: from the row just filled back
+/// to the row whose candidates are computed.
+const CENTRE_ROWS: usize = RADIUS + 1;
+/// Rows whose outputs a denoiser keeps: from the row whose candidates are
+/// computed back to the row being chosen.
+const CHOICE_KEPT: usize = CHOICE_RADIUS + 1;
 
-/// The texels a denoiser of a `width`-pixel row needs in its ring.
-pub const fn ring_len(width: usize) -> usize {
-    RING_ROWS * width
+/// A denoiser's memory for one column of the image, all its rings of rows
+/// together (the caller owns a slice of these, one per column).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Column {
+    taps: [Tap; RING_ROWS],
+    centres: [Centre; CENTRE_ROWS],
+    /// The row just filled: its pixel's shade, for the row pass.
+    shade: Color,
+    /// The row whose candidates are computed: the pixel's own SURE of each
+    /// candidate, "no filter" last.
+    sure: [f32; WIDTHS.len() + 1],
+    /// Each row's SURE summed over the pixels within [`CHOICE_RADIUS`] in
+    /// the row (once per row, so that the choice adds rows, not pixels).
+    row_sure: [[f32; WIDTHS.len() + 1]; CHOICE_ROWS],
+    choices: [Choice; CHOICE_KEPT],
 }
 
-/// The candidates a denoiser of a `width`-pixel row needs.
-pub const fn candidates_len(width: usize) -> usize {
-    CHOICE_ROWS * width
+impl Column {
+    /// An empty column (its contents are written before they are read).
+    pub const EMPTY: Self = Self {
+        taps: [Tap::NONE; RING_ROWS],
+        centres: [Centre::NONE; CENTRE_ROWS],
+        shade: Color::ZERO,
+        sure: [0.0; WIDTHS.len() + 1],
+        row_sure: [[0.0; WIDTHS.len() + 1]; CHOICE_ROWS],
+        choices: [Choice::NONE; CHOICE_KEPT],
+    };
 }
 
-/// The bytes of a denoiser's workspace for a `width`-pixel row: the ring
-/// of texels and the ring of candidates.
+/// The bytes of a denoiser's workspace for a `width`-pixel row: one
+/// [`Column`] a pixel of the row.
 pub const fn workspace_bytes(width: usize) -> usize {
-    ring_len(width) * core::mem::size_of::<Texel>()
-        + candidates_len(width) * core::mem::size_of::<Candidate>()
+    width * core::mem::size_of::<Column>()
 }
 
 /// Why a denoiser cannot run.
@@ -261,8 +318,7 @@ pub const fn workspace_bytes(width: usize) -> usize {
 pub enum DenoiseError {
     /// The image has no pixels, or more than `u32` can count.
     Size,
-    /// The workspace given is smaller than [`ring_len`] texels or
-    /// [`candidates_len`] candidates.
+    /// The workspace given has fewer [`Column`]s than the image's width.
     Workspace,
 }
 
@@ -275,13 +331,12 @@ impl core::fmt::Display for DenoiseError {
     }
 }
 
-/// The streaming denoiser: a ring of rows over caller-owned memory.
+/// The streaming denoiser: rings of rows over caller-owned memory.
 #[derive(Debug)]
 pub struct Denoiser<'w> {
     width: usize,
     height: usize,
-    ring: &'w mut [Texel],
-    row: &'w mut [Candidate],
+    columns: &'w mut [Column],
     /// Each filter's Gaussian weight per tap offset `−RADIUS ..= RADIUS`
     /// (0 beyond its reach), along a row and along a column alike.
     weights: [[f32; SIDE]; WIDTHS.len()],
@@ -318,24 +373,14 @@ impl Default for Guards {
 }
 
 impl<'w> Denoiser<'w> {
-    /// A denoiser of a `width × height` image over `ring` (at least
-    /// [`ring_len`]`(width)` texels) and `row` (at least
-    /// [`candidates_len`]`(width)` candidates).
-    pub fn new(
-        width: u32,
-        height: u32,
-        ring: &'w mut [Texel],
-        row: &'w mut [Candidate],
-    ) -> Result<Self, DenoiseError> {
+    /// A denoiser of a `width × height` image over `columns` (at least
+    /// `width` of them).
+    pub fn new(width: u32, height: u32, columns: &'w mut [Column]) -> Result<Self, DenoiseError> {
         let (w, h) = (width as usize, height as usize);
         if w == 0 || h == 0 {
             return Err(DenoiseError::Size);
         }
-        let (Some(texels), Some(cands)) = (w.checked_mul(RING_ROWS), w.checked_mul(CHOICE_ROWS))
-        else {
-            return Err(DenoiseError::Size);
-        };
-        let (Some(ring), Some(row)) = (ring.get_mut(..texels), row.get_mut(..cands)) else {
+        let Some(columns) = columns.get_mut(..w) else {
             return Err(DenoiseError::Workspace);
         };
         let mut weights = [[0.0; SIDE]; WIDTHS.len()];
@@ -355,8 +400,7 @@ impl<'w> Denoiser<'w> {
         Ok(Self {
             width: w,
             height: h,
-            ring,
-            row,
+            columns,
             weights,
             guards: Guards::default(),
         })
@@ -369,24 +413,22 @@ impl<'w> Denoiser<'w> {
         self
     }
 
-    /// Denoises the image row by row. `fill(y, row)` writes row `y`'s
-    /// texels (called once per row, in order, [`RADIUS`] rows ahead of the
-    /// row whose candidates are computed); `emit(y, x, colour)` receives
-    /// each output pixel, row by row ([`CHOICE_RADIUS`] rows behind).
+    /// Denoises the image row by row. `fill(y, x)` gives pixel (x, y)'s
+    /// texel (called once per pixel, row by row and left to right within a
+    /// row, [`RADIUS`] rows ahead of the row whose candidates are
+    /// computed); `emit(y, x, colour)` receives each output pixel, row by
+    /// row ([`CHOICE_RADIUS`] rows behind).
     pub fn run(
         &mut self,
-        mut fill: impl FnMut(u32, &mut [Texel]),
+        mut fill: impl FnMut(u32, u32) -> Texel,
         mut emit: impl FnMut(u32, u32, Color),
     ) {
-        let (w, h) = (self.width, self.height);
+        let h = self.height;
         let mut filled = 0;
         for y in 0..h {
             while filled < h && filled <= y + RADIUS {
-                let slot = (filled % RING_ROWS) * w;
-                if let Some(texels) = self.ring.get_mut(slot..slot + w) {
-                    fill(filled as u32, texels);
-                    across(texels, &self.weights, self.guards);
-                }
+                self.fill_row(filled, &mut fill);
+                self.across(filled);
                 filled += 1;
             }
             self.candidates(y);
@@ -399,41 +441,124 @@ impl<'w> Denoiser<'w> {
         }
     }
 
-    /// Row `r`'s candidates (empty if out of reach: never, for the rows
-    /// `run` asks for).
-    fn candidate_row(&self, r: usize) -> &[Candidate] {
-        let start = (r % CHOICE_ROWS) * self.width;
-        self.row.get(start..start + self.width).unwrap_or(&[])
+    /// Row `y`'s texels into the rings: the tap's and the centre's parts,
+    /// and the shade for the row pass.
+    fn fill_row(&mut self, y: usize, fill: &mut impl FnMut(u32, u32) -> Texel) {
+        let (tap, centre) = (y % RING_ROWS, y % CENTRE_ROWS);
+        for (x, col) in self.columns.iter_mut().enumerate() {
+            let t = fill(y as u32, x as u32);
+            let (Some(slot), Some(c)) = (col.taps.get_mut(tap), col.centres.get_mut(centre)) else {
+                continue;
+            };
+            *slot = Tap {
+                across: [Color::ZERO; WIDTHS.len()],
+                normal: t.normal,
+                spread: t.spread,
+                key: t.key,
+                filtered: t.filtered,
+                flat: t.flat,
+            };
+            *c = Centre {
+                scattered: t.scattered,
+                direct: t.direct,
+                albedo: t.albedo,
+                variance: t.variance,
+                own: [0.0; WIDTHS.len()],
+            };
+            col.shade = if t.filtered { t.shade() } else { Color::ZERO };
+        }
+    }
+
+    /// The row pass of every pixel of row `y` (just filled): each filter's
+    /// weighted mean of the similar pixels' shade within its reach, and its
+    /// own share.
+    fn across(&mut self, y: usize) {
+        let (slot, centre) = (y % RING_ROWS, y % CENTRE_ROWS);
+        let w = self.width;
+        let [narrow, wide] = &self.weights;
+        for x in 0..w {
+            let Some(g) = self.columns.get(x).and_then(|c| {
+                let t = c.taps.get(slot)?;
+                let p = c.centres.get(centre)?;
+                t.filtered.then(|| guide3(t, p, self.guards))
+            }) else {
+                continue;
+            };
+            let mut sum = [Color::ZERO; WIDTHS.len()];
+            let mut wsum = [0.0f32; WIDTHS.len()];
+            // the weight tables' entries of the taps within the row
+            let first = RADIUS.saturating_sub(x);
+            let end = SIDE.min(w - x + RADIUS);
+            for i in first..end {
+                let Some(col) = self.columns.get(x + i - RADIUS) else {
+                    continue;
+                };
+                let Some(q) = col.taps.get(slot) else {
+                    continue;
+                };
+                if !similar(&g, q) {
+                    continue;
+                }
+                let (ww, wn) = (wide[i], narrow[i]);
+                sum[1] += col.shade * ww;
+                wsum[1] += ww;
+                // the narrow filter's weights are 0 beyond its reach
+                if math::gt_zero(wn) {
+                    sum[0] += col.shade * wn;
+                    wsum[0] += wn;
+                }
+            }
+            let Some(col) = self.columns.get_mut(x) else {
+                continue;
+            };
+            let mut across = [Color::ZERO; WIDTHS.len()];
+            let mut own = [0.0; WIDTHS.len()];
+            for k in 0..WIDTHS.len() {
+                // the pixel is its own tap, of weight 1: wsum ≥ 1
+                let inv = 1.0 / wsum[k];
+                across[k] = sum[k] * inv;
+                own[k] = inv;
+            }
+            if let Some(t) = col.taps.get_mut(slot) {
+                t.across = across;
+            }
+            if let Some(c) = col.centres.get_mut(centre) {
+                c.own = own;
+            }
+        }
     }
 
     /// The candidates and their SURE for every pixel of row `y`.
     fn candidates(&mut self, y: usize) {
         let (w, h) = (self.width, self.height);
-        // the ring's rows y − RADIUS ..= y + RADIUS (empty outside the image)
-        let rows: [&[Texel]; SIDE] =
-            core::array::from_fn(|dy| match (y + dy).checked_sub(RADIUS).filter(|&q| q < h) {
-                Some(qy) => {
-                    let start = (qy % RING_ROWS) * w;
-                    self.ring.get(start..start + w).unwrap_or(&[])
-                }
-                None => &[],
-            });
-        let start = (y % CHOICE_ROWS) * w;
-        let out = self.row.get_mut(start..start + w).unwrap_or(&mut []);
-        for (x, slot) in out.iter_mut().enumerate() {
-            candidate_at(&rows, x, &self.weights, self.guards, slot);
+        // the ring slots of rows y − RADIUS ..= y + RADIUS (None outside
+        // the image)
+        let rows: [Option<usize>; SIDE] = core::array::from_fn(|dy| {
+            (y + dy)
+                .checked_sub(RADIUS)
+                .filter(|&q| q < h)
+                .map(|q| q % RING_ROWS)
+        });
+        let (centre, kept) = (y % CENTRE_ROWS, y % CHOICE_KEPT);
+        for col in self.columns.iter_mut() {
+            candidate_at(col, &rows, centre, kept, &self.weights, self.guards);
         }
+        let slot = y % CHOICE_ROWS;
         for x in 0..w {
             let x0 = x.saturating_sub(CHOICE_RADIUS);
             let x1 = (x + CHOICE_RADIUS).min(w - 1);
             let mut total = [0.0f32; WIDTHS.len() + 1];
-            for q in out.get(x0..=x1).unwrap_or(&[]) {
+            for q in self.columns.get(x0..=x1).unwrap_or(&[]) {
                 for (t, s) in total.iter_mut().zip(q.sure.iter()) {
                     *t += *s;
                 }
             }
-            if let Some(slot) = out.get_mut(x) {
-                slot.row_sure = total;
+            if let Some(r) = self
+                .columns
+                .get_mut(x)
+                .and_then(|c| c.row_sure.get_mut(slot))
+            {
+                *r = total;
             }
         }
     }
@@ -443,89 +568,92 @@ impl<'w> Denoiser<'w> {
     /// is least, "no filter" on a tie.
     fn choose(&mut self, y: usize, emit: &mut impl FnMut(u32, u32, Color)) {
         let h = self.height;
-        // the candidate rows y − CHOICE_RADIUS ..= y + CHOICE_RADIUS
-        // (empty outside the image)
-        let rows: [&[Candidate]; CHOICE_ROWS] = core::array::from_fn(|dy| {
-            match (y + dy).checked_sub(CHOICE_RADIUS).filter(|&q| q < h) {
-                Some(qy) => self.candidate_row(qy),
-                None => &[],
-            }
+        // the ring slots of rows y − CHOICE_RADIUS ..= y + CHOICE_RADIUS
+        // (None outside the image)
+        let rows: [Option<usize>; CHOICE_ROWS] = core::array::from_fn(|dy| {
+            (y + dy)
+                .checked_sub(CHOICE_RADIUS)
+                .filter(|&q| q < h)
+                .map(|q| q % CHOICE_ROWS)
         });
-        for (x, p) in rows[CHOICE_RADIUS].iter().enumerate() {
-            if !p.filtered_pixel {
-                emit(y as u32, x as u32, p.direct);
+        let kept = y % CHOICE_KEPT;
+        for (x, col) in self.columns.iter().enumerate() {
+            let Some(p) = col.choices.get(kept) else {
+                continue;
+            };
+            if !p.filtered {
+                emit(y as u32, x as u32, p.out[WIDTHS.len()]);
                 continue;
             }
             let mut total = [0.0f32; WIDTHS.len() + 1];
-            for row in &rows {
-                if let Some(q) = row.get(x) {
-                    for (t, s) in total.iter_mut().zip(q.row_sure.iter()) {
-                        *t += *s;
-                    }
+            for s in rows.iter().flatten().filter_map(|&r| col.row_sure.get(r)) {
+                for (t, s) in total.iter_mut().zip(s.iter()) {
+                    *t += *s;
                 }
             }
             // without "no filter" among the choices, the narrowest filter
             // is what is left
             let (mut best, mut best_sure) = if self.guards.no_filter {
-                (None, total[WIDTHS.len()])
+                (WIDTHS.len(), total[WIDTHS.len()])
             } else {
-                (Some(0), f32::INFINITY)
+                (0, f32::INFINITY)
             };
-            let y_lum = p.scattered.luminance();
-            for (k, (t, f)) in total.iter().zip(&p.filtered).enumerate() {
-                // the consistency guard: a filter may move the pixel by at
-                // most CONSISTENCY of its own standard errors (else it is
-                // biased here, whatever its window's SURE says)
-                let d = f.luminance() - y_lum;
-                let consistent =
-                    !self.guards.consistency || d * d <= CONSISTENCY * CONSISTENCY * p.variance;
+            for (k, (t, &consistent)) in total.iter().zip(&p.consistent).enumerate() {
                 if consistent && math::lt(*t, best_sure) {
-                    best = Some(k);
+                    best = k;
                     best_sure = *t;
                 }
             }
-            let out = match best.and_then(|k| p.filtered.get(k)) {
-                Some(f) => *f,
-                None => p.scattered,
-            };
-            emit(y as u32, x as u32, out + p.direct);
+            let out = p.out.get(best).copied().unwrap_or(p.out[WIDTHS.len()]);
+            emit(y as u32, x as u32, out);
         }
     }
 }
 
-/// Pixel `x`'s candidates and their SURE into `cand`, from the ring's rows
-/// around it (`rows[RADIUS]` its own): the column pass over the row
-/// passes' results.
+/// Pixel `col`'s candidates, their SURE (into `col.sure`) and its outputs
+/// (into `col.choices[kept]`), from the taps of the ring slots `rows`
+/// (`rows[RADIUS]` its own row's) and its centre data in slot `centre`:
+/// the column pass over the row passes' results.
 #[inline(always)]
 fn candidate_at(
-    rows: &[&[Texel]; SIDE],
-    x: usize,
+    col: &mut Column,
+    rows: &[Option<usize>; SIDE],
+    centre: usize,
+    kept: usize,
     weights: &[[f32; SIDE]; WIDTHS.len()],
     guards: Guards,
-    cand: &mut Candidate,
 ) {
-    let Some(p) = rows[RADIUS].get(x) else {
-        *cand = Candidate::ZERO;
+    let Column {
+        taps,
+        centres,
+        sure: own_sure,
+        choices,
+        ..
+    } = col;
+    let (Some(t), Some(p), Some(choice)) = (
+        rows[RADIUS].and_then(|r| taps.get(r)),
+        centres.get(centre),
+        choices.get_mut(kept),
+    ) else {
+        *own_sure = [0.0; WIDTHS.len() + 1];
         return;
     };
-    if !p.filtered {
-        *cand = Candidate {
-            direct: p.raw(),
-            ..Candidate::ZERO
+    let raw = p.scattered + p.direct;
+    if !t.filtered {
+        *choice = Choice {
+            out: [Color::ZERO, Color::ZERO, raw],
+            consistent: [false; WIDTHS.len()],
+            filtered: false,
         };
+        *own_sure = [0.0; WIDTHS.len() + 1];
         return;
     }
     let mut sum = [Color::ZERO; WIDTHS.len()];
     let mut wsum = [0.0f32; WIDTHS.len()];
     let [narrow, wide] = weights;
-    let g = Guide3 {
-        key: p.key,
-        flat: p.flat,
-        normal: p.normal,
-        outlier: outlier(p, guards),
-    };
+    let g = guide3(t, p, guards);
     for ((row, &ww), &wn) in rows.iter().zip(wide).zip(narrow) {
-        let Some(q) = row.get(x) else {
+        let Some(q) = row.and_then(|r| taps.get(r)) else {
             continue;
         };
         if !similar(&g, q) {
@@ -540,63 +668,43 @@ fn candidate_at(
         }
     }
     let y_lum = p.scattered.luminance();
-    cand.scattered = p.scattered;
-    cand.direct = p.direct;
-    cand.variance = p.spread;
-    cand.filtered_pixel = true;
-    for (((f, sure), (s, ws)), own) in cand
-        .filtered
-        .iter_mut()
-        .zip(cand.sure.iter_mut())
-        .zip(sum.iter().zip(wsum))
-        .zip(p.own)
-    {
-        // the pixel itself is always a tap, of weight 1: ws ≥ 1
-        let inv = 1.0 / ws;
-        *f = p.albedo * (*s * inv);
+    let mut filtered = [Color::ZERO; WIDTHS.len()];
+    let mut sure = [0.0f32; WIDTHS.len() + 1];
+    let mut consistent = [false; WIDTHS.len()];
+    for k in 0..WIDTHS.len() {
+        // the pixel itself is always a tap, of weight 1: wsum ≥ 1
+        let inv = 1.0 / wsum[k];
+        let f = p.albedo * (sum[k] * inv);
         let d = f.luminance() - y_lum;
         // ∂F/∂y at the pixel: its own share of the column pass times its
         // own share of its row pass (no other row holds it)
         let div = if guards.divergence {
-            2.0 * inv * own - 1.0
+            2.0 * inv * p.own[k] - 1.0
         } else {
             -1.0
         };
-        *sure = d * d + p.variance * div;
+        sure[k] = d * d + p.variance * div;
+        // the consistency guard: a filter may move the pixel by at most
+        // CONSISTENCY of its own standard errors (else it is biased here,
+        // whatever its window's SURE says)
+        consistent[k] = !guards.consistency || d * d <= CONSISTENCY * CONSISTENCY * t.spread;
+        filtered[k] = f;
     }
-    cand.sure[WIDTHS.len()] = p.variance;
+    sure[WIDTHS.len()] = p.variance;
     // each pixel's estimates relative to its brightness (the widest
     // filter's, the least noisy guess of it), so that a dark pixel's choice
     // is not made by its bright neighbours' errors
-    let b = cand.filtered[WIDTHS.len() - 1].luminance();
+    let b = filtered[WIDTHS.len() - 1].luminance();
     let rel = 1.0 / (b * b + RELATIVE_FLOOR);
-    for s in cand.sure.iter_mut() {
+    for s in sure.iter_mut() {
         *s *= rel;
     }
-}
-
-/// Whether `q` is a tap of `p`'s filters: both filtered, the same chain of
-/// objects, normals within [`NORMAL_COS`] (a plane's are equal).
-#[inline(always)]
-fn similar(p: &Guide3, q: &Texel) -> bool {
-    // a plane's pixels of the same key share its normal: no test
-    q.filtered
-        && q.key == p.key
-        && !math::gt(q.spread, p.outlier)
-        && (p.flat || !math::lt(p.normal.dot(q.normal), NORMAL_COS))
-}
-
-/// The spread above which a tap is an outlier for pixel `p`'s filters: a
-/// firefly (one rare bright path among the pixel's samples) has a spread
-/// far above its neighbours'; as a tap it would move them by more than
-/// their own noise. (The pixel itself is always its own tap.)
-#[inline(always)]
-fn outlier(p: &Texel, guards: Guards) -> f32 {
-    if !guards.outlier {
-        return f32::INFINITY;
-    }
-    let l = p.scattered.luminance();
-    OUTLIER * OUTLIER * math::max(p.spread, OUTLIER_FLOOR * l * l)
+    *own_sure = sure;
+    *choice = Choice {
+        out: [filtered[0] + p.direct, filtered[1] + p.direct, raw],
+        consistent,
+        filtered: true,
+    };
 }
 
 /// What [`similar`] reads of the pixel whose taps it tests.
@@ -609,83 +717,89 @@ struct Guide3 {
     outlier: f32,
 }
 
-/// The row pass of every pixel of `row`: each filter's weighted mean of
-/// the similar pixels' shade within its reach, and its own share.
-fn across(row: &mut [Texel], weights: &[[f32; SIDE]; WIDTHS.len()], guards: Guards) {
-    let w = row.len();
-    for x in 0..w {
-        // what the similarity test reads of the pixel (not the whole texel)
-        let p = match row.get(x) {
-            Some(t) if t.filtered => Guide3 {
-                key: t.key,
-                flat: t.flat,
-                normal: t.normal,
-                outlier: outlier(t, guards),
-            },
-            _ => continue,
-        };
-        let x0 = x.saturating_sub(RADIUS);
-        let mut sum = [Color::ZERO; WIDTHS.len()];
-        let mut wsum = [0.0f32; WIDTHS.len()];
-        let taps = row.get(x0..=(x + RADIUS).min(w - 1)).unwrap_or(&[]);
-        // the weight tables' entry of the first tap
-        let t0 = x0 + RADIUS - x;
-        let [narrow, wide] = weights;
-        for ((q, &ww), &wn) in taps
-            .iter()
-            .zip(wide.get(t0..).unwrap_or(&[]))
-            .zip(narrow.get(t0..).unwrap_or(&[]))
-        {
-            if !similar(&p, q) {
-                continue;
-            }
-            sum[1] += q.shade * ww;
-            wsum[1] += ww;
-            // the narrow filter's weights are 0 beyond its reach
-            if math::gt_zero(wn) {
-                sum[0] += q.shade * wn;
-                wsum[0] += wn;
-            }
-        }
-        if let Some(t) = row.get_mut(x) {
-            for k in 0..WIDTHS.len() {
-                // the pixel is its own tap, of weight 1: wsum ≥ 1
-                let inv = 1.0 / wsum[k];
-                t.across[k] = sum[k] * inv;
-                t.own[k] = inv;
-            }
-        }
+/// The similarity test's view of a filtered pixel: its tap part `t` and
+/// centre part `p`. The outlier threshold: a firefly (one rare bright path
+/// among the pixel's samples) has a spread far above its neighbours'; as
+/// a tap it would move them by more than their own noise. (The pixel
+/// itself is always its own tap.)
+#[inline(always)]
+fn guide3(t: &Tap, p: &Centre, guards: Guards) -> Guide3 {
+    let outlier = if guards.outlier {
+        let l = p.scattered.luminance();
+        OUTLIER * OUTLIER * math::max(t.spread, OUTLIER_FLOOR * l * l)
+    } else {
+        f32::INFINITY
+    };
+    Guide3 {
+        key: t.key,
+        flat: t.flat,
+        normal: t.normal,
+        outlier,
     }
 }
 
+/// Whether `q` is a tap of `p`'s filters: both filtered, the same chain of
+/// objects, normals within [`NORMAL_COS`] (a plane's are equal).
+#[inline(always)]
+fn similar(p: &Guide3, q: &Tap) -> bool {
+    // a plane's pixels of the same key share its normal: no test
+    q.filtered
+        && q.key == p.key
+        && !math::gt(q.spread, p.outlier)
+        && (p.flat || !math::lt(p.normal.dot(q.normal), NORMAL_COS))
+}
+
 /// Denoises a whole frame whose samples are summed in `moments` (row-major,
-/// `n` samples a pixel), its guides computed by [`guide`] row by row and
-/// shown to `on_guide(x, y, guide)` (the host's guide images; a firmware
-/// passes a closure that does nothing): `emit(y, x, colour)` receives each
-/// output pixel. The workspace is as for [`Denoiser::new`].
+/// `n` samples a pixel), its guides computed by [`guide`] pixel by pixel
+/// and shown to `on_guide(x, y, guide)` (the host's guide images; a
+/// firmware passes a closure that does nothing): `emit(y, x, colour)`
+/// receives each output pixel. The workspace is as for [`Denoiser::new`].
 pub fn denoise_moments(
     renderer: &crate::render::Renderer<'_>,
     moments: &[Moments],
     n: u32,
-    ring: &mut [Texel],
-    row: &mut [Candidate],
-    mut on_guide: impl FnMut(u32, u32, &Guide),
+    columns: &mut [Column],
+    on_guide: impl FnMut(u32, u32, &Guide),
     emit: impl FnMut(u32, u32, Color),
 ) -> Result<(), DenoiseError> {
     let (w, h) = (renderer.width(), renderer.height());
     if moments.len() < (w as usize).saturating_mul(h as usize) {
         return Err(DenoiseError::Size);
     }
-    let mut d = Denoiser::new(w, h, ring, row)?;
+    denoise_with(
+        renderer,
+        |x, y| {
+            moments
+                .get(y as usize * w as usize + x as usize)
+                .copied()
+                .unwrap_or(Moments::ZERO)
+        },
+        n,
+        columns,
+        on_guide,
+        emit,
+    )
+}
+
+/// Denoises a frame whose pixels' moments `pixel(x, y)` gives when the
+/// denoiser needs them (row by row, left to right, [`RADIUS`] rows ahead
+/// of the row being filtered): a board renders each pixel's `n` samples
+/// there, and keeps no frame of moments. Otherwise as [`denoise_moments`].
+pub fn denoise_with(
+    renderer: &crate::render::Renderer<'_>,
+    mut pixel: impl FnMut(u32, u32) -> Moments,
+    n: u32,
+    columns: &mut [Column],
+    mut on_guide: impl FnMut(u32, u32, &Guide),
+    emit: impl FnMut(u32, u32, Color),
+) -> Result<(), DenoiseError> {
+    let mut d = Denoiser::new(renderer.width(), renderer.height(), columns)?;
     d.run(
-        |y, texels| {
-            let start = y as usize * w as usize;
-            let row = moments.get(start..).unwrap_or(&[]);
-            for (x, (t, m)) in texels.iter_mut().zip(row).enumerate() {
-                let g = guide(renderer, x as u32, y);
-                on_guide(x as u32, y, &g);
-                *t = Texel::new(m, n, &g);
-            }
+        |y, x| {
+            let m = pixel(x, y);
+            let g = guide(renderer, x, y);
+            on_guide(x, y, &g);
+            Texel::new(&m, n, &g)
         },
         emit,
     );
