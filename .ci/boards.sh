@@ -6,7 +6,8 @@
 # .cargo/config.toml (target, linker script), so each is built from its own
 # directory. They share one target directory. Nothing runs: there is no
 # board here (docs/boards.md says what QEMU verifies instead). Per board:
-# rustfmt, clippy (-D warnings), the release build (--locked: the committed
+# rustfmt, clippy (-D warnings; with and without the `raw` feature), the
+# release build (--locked: the committed
 # Cargo.lock), its flash and RAM from the ELF's section headers, and which
 # f32 routines it links, from its symbol and line tables (.ci/floats.py):
 # on the Pico 2 none (the FPU), on the Pico and the ESP32-C3 micropt's own
@@ -109,6 +110,8 @@ for board in $BOARDS; do
         cd "examples/boards/$name"
         cargo fmt -- --check
         cargo clippy --release --locked -- -D warnings
+        # the progressive raw frame instead of the denoised one
+        cargo clippy --release --locked --features raw -- -D warnings
         cargo build --release --locked
     )
     elf="$CARGO_TARGET_DIR/$target/release/micropt-$name"

@@ -1,22 +1,28 @@
 //! micropt on an ESP32-C3 (one RISC-V RV32IMC core at 160 MHz, no FPU) with
-//! a 240×240 ST7789 SPI panel, rendering the Cornell box progressively, tile
-//! by tile, straight to the panel through `mipidsi`.
+//! a 240×240 ST7789 SPI panel, rendering the Cornell box at 16 samples a
+//! pixel and denoising it on the board, row by row, straight to the panel
+//! through `mipidsi`.
 //!
-//! The core's single-core budget executor (`micropt::budget::render_budget`)
-//! keeps one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB, on the
-//! stack) and draws every tile twice, tone-mapped, dithered, with one window
-//! write: first a preview (sample 0 of one pixel per 2×2 block) of the whole
-//! image, then each tile refined to its share of [`BUDGET`] with adaptive
-//! allocation. With `Budget::Spp(16)` the final image is the host's `micropt
-//! render scenes/cornell.scene --size 240x240 --spp 16 --seed 0` (the same
-//! image as the STM32F405 example's). The C3 has no FPU: every f32 add,
-//! subtract, multiply, divide, compare and int-to-float conversion is
-//! micropt's correctly rounded routine (`micropt::math::soft`, exported under
-//! the libgcc names by `examples/board/softfloat.rs`), not the chip's
+//! The denoised frame (`examples/board/denoised.rs`): micropt's streaming
+//! denoiser asks for each pixel's samples a few rows ahead of the row it
+//! filters and gives each row as soon as it is chosen; the row goes to the
+//! panel at once. No frame of samples and no framebuffer: static RAM is the
+//! denoiser's rings (one `Column` of 796 bytes a pixel of a row: 191,040
+//! bytes) and one row of colours. The image is the host's `micropt render
+//! scenes/cornell.scene --size 240x240 --spp 16 --seed 0 --uniform
+//! --denoise`, bit for bit. With `--features raw` the example renders the
+//! raw frame instead, through the core's single-core budget executor
+//! (`micropt::budget::render_budget`: one 16×16 tile of accumulators, a
+//! preview of the whole image, then each tile refined with adaptive
+//! allocation; with `Budget::Spp(16)` the host's `micropt render
+//! scenes/cornell.scene --size 240x240 --spp 16 --seed 0`; a
+//! `Budget::Deadline(µs)` caps it instead). The C3 has no FPU: every f32
+//! add, subtract, multiply, divide, compare and int-to-float conversion is
+//! micropt's correctly rounded routine (`micropt::math::soft`, exported
+//! under the libgcc names by `examples/board/softfloat.rs`), not the chip's
 //! mask-ROM libgcc, which esp-hal's linker script would bind them to
 //! (`build.rs` says how that is kept off). So a frame is many times slower
-//! than on an M4F (docs/boards.md); a `Budget::Deadline(µs)` caps it instead,
-//! read from esp-hal's microsecond clock.
+//! than on an M4F (docs/boards.md).
 //!
 //! Wiring (SPI2 on its IO MUX pins; any ESP32-C3 board, e.g. an
 //! ESP32-C3-DevKitM-1 or a "C3 SuperMini", and an ST7789 240×240 module):
@@ -36,12 +42,13 @@
 //! USB's GPIO18/19.)
 //!
 //! What it shows: the panel is cleared to black before the backlight comes
-//! on, then the preview fills it in tile by tile, then the refined tiles
-//! replace it. Over USB (`espflash flash --monitor`, or any serial monitor
+//! on, then the denoised rows appear from the top (the raw frame: the
+//! preview fills it in tile by tile, then the refined tiles replace it).
+//! Over USB (`espflash flash --monitor`, or any serial monitor
 //! on the board's USB port: esp-println writes to the C3's USB serial/JTAG
 //! or to UART0, whichever the board's USB connector is wired to) it prints
-//! each init step, the preview's and each tenth of the refinement's
-//! progress, and the frame time; a failed step says which. The backlight
+//! each init step, each tenth of the rows (or the preview and each tenth of
+//! the refinement), and the frame time; a failed step says which. The backlight
 //! stays off if the panel could not be set up.
 //!
 //! Build and flash: docs/boards.md.
@@ -53,6 +60,10 @@
 #[path = "../../../board/softfloat.rs"]
 mod softfloat;
 
+#[cfg(not(feature = "raw"))]
+#[path = "../../../board/denoised.rs"]
+mod denoised;
+#[cfg(feature = "raw")]
 #[path = "../../../board/progress.rs"]
 mod progress;
 
@@ -66,14 +77,20 @@ use esp_hal::spi::Mode;
 use esp_hal::spi::master::{Config, Spi};
 use esp_hal::time::{Instant, Rate};
 use esp_println::println;
-use micropt::budget::{TileAccum, render_budget};
-use micropt::film::tile_count;
-use micropt::{AdaptiveOptions, Budget, Renderer, Scene};
+use micropt::{Renderer, Scene};
 use mipidsi::Builder;
 use mipidsi::interface::SpiInterface;
 use mipidsi::models::ST7789;
 use mipidsi::options::ColorInversion;
-use progress::{Milestone, Progress};
+#[cfg(feature = "raw")]
+use {
+    micropt::budget::{TileAccum, render_budget},
+    micropt::film::tile_count,
+    micropt::{AdaptiveOptions, Budget},
+    progress::{Milestone, Progress},
+};
+#[cfg(not(feature = "raw"))]
+use {micropt::denoise::Column, static_cell::ConstStaticCell};
 
 // the application descriptor the ESP-IDF second-stage bootloader checks
 esp_bootloader_esp_idf::esp_app_desc!();
@@ -82,8 +99,13 @@ esp_bootloader_esp_idf::esp_app_desc!();
 const WIDTH: u32 = 240;
 /// Panel size.
 const HEIGHT: u32 = 240;
-/// The render budget: 16 samples per pixel on average; e.g.
+/// Samples per pixel of the denoised frame (every pixel the same: the
+/// denoiser's variance estimate needs each pixel's own samples).
+#[cfg(not(feature = "raw"))]
+const SPP: u32 = 16;
+/// The raw frame's budget: 16 samples per pixel on average; e.g.
 /// `Budget::Deadline(60_000_000)` for a frame in a minute.
+#[cfg(feature = "raw")]
 const BUDGET: Budget = Budget::Spp(16);
 /// Render seed.
 const SEED: u64 = 0;
@@ -93,9 +115,21 @@ const SCENE_TEXT: &str = include_str!("../../../../scenes/cornell.scene");
 /// materials); a bigger scene gives a capacity error, not a panic.
 type BoardScene = Scene<4, 8, 8>;
 
+/// The denoiser's rings: one `Column` a pixel of a row (all zero bits:
+/// .bss).
+#[cfg(not(feature = "raw"))]
+static COLUMNS: ConstStaticCell<[Column; WIDTH as usize]> =
+    ConstStaticCell::new([Column::EMPTY; WIDTH as usize]);
+/// One row of panel colours.
+#[cfg(not(feature = "raw"))]
+static LINE: ConstStaticCell<[Rgb565; WIDTH as usize]> =
+    ConstStaticCell::new([Rgb565::BLACK; WIDTH as usize]);
+
 /// Microseconds since boot, from esp-hal's system timer.
+#[cfg(feature = "raw")]
 struct SysClock;
 
+#[cfg(feature = "raw")]
 impl micropt::Clock for SysClock {
     fn micros(&mut self) -> u64 {
         Instant::now().duration_since_epoch().as_micros()
@@ -109,6 +143,7 @@ fn stamp() -> (u64, u64) {
 }
 
 /// Logs how far the frame has come.
+#[cfg(feature = "raw")]
 fn report(m: Milestone) {
     let (s, ms) = stamp();
     match m {
@@ -134,7 +169,7 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
 #[esp_hal::main]
 fn main() -> ! {
     let p = esp_hal::init(esp_hal::Config::default().with_cpu_clock(CpuClock::max()));
-    println!("micropt on ESP32-C3 + ST7789: cornell {WIDTH}x{HEIGHT}, {BUDGET:?}");
+    println!("micropt on ESP32-C3 + ST7789: cornell {WIDTH}x{HEIGHT}");
     // backlight off until the panel is cleared
     let mut backlight = Output::new(p.GPIO3, Level::Low, OutputConfig::default());
     // mode 3: CS-less 240×240 modules only answer in it, and it works with
@@ -179,28 +214,66 @@ fn main() -> ! {
         fail("renderer setup")
     };
     let renderer = renderer.seed(SEED);
-    let mut acc = TileAccum::new();
-    let tiles = tile_count(WIDTH, HEIGHT) as u32;
-    let mut target = Progress::new(panel, tiles, report);
-    println!("rendering {tiles} tiles: preview, then refinement");
-    // preview first, then refined tiles, each straight to the panel
-    match render_budget(
-        &renderer,
-        BUDGET,
-        &AdaptiveOptions::default(),
-        &mut acc,
-        &mut SysClock,
-        &mut target,
-        1.0,
-    ) {
-        Ok(s) => println!(
-            "frame done in {} ms (preview {} ms): {} samples, {} paths",
-            s.total_micros / 1000,
-            s.preview_micros / 1000,
-            s.samples,
-            s.stats.paths
-        ),
-        Err(_) => fail("drawing a tile"),
+
+    #[cfg(not(feature = "raw"))]
+    {
+        let (Some(columns), Some(line)) = (COLUMNS.try_take(), LINE.try_take()) else {
+            fail("static memory (taken twice)")
+        };
+        println!("rendering and denoising {HEIGHT} rows at {SPP} spp");
+        let start = Instant::now();
+        let mut stats = micropt::Stats::default();
+        let result = denoised::frame(
+            &renderer,
+            SPP,
+            1.0,
+            columns,
+            line,
+            |x, y| denoised::moments(&renderer, x, y, SPP, &mut stats),
+            &mut panel,
+            // each tenth of the rows on the panel
+            |y| {
+                if (y + 1) * 10 / HEIGHT != y * 10 / HEIGHT {
+                    let (s, ms) = stamp();
+                    println!("[{s}.{ms:03}] denoised rows: {}%", (y + 1) * 100 / HEIGHT);
+                }
+            },
+        );
+        match result {
+            Ok(()) => println!(
+                "frame done in {} ms: {} paths",
+                start.elapsed().as_millis(),
+                stats.paths
+            ),
+            Err(e) => fail(e.what()),
+        }
+    }
+
+    #[cfg(feature = "raw")]
+    {
+        let mut acc = TileAccum::new();
+        let tiles = tile_count(WIDTH, HEIGHT) as u32;
+        let mut target = Progress::new(panel, tiles, report);
+        println!("rendering {tiles} tiles: preview, then refinement");
+        // preview first, then refined tiles, each straight to the panel
+        match render_budget(
+            &renderer,
+            BUDGET,
+            &AdaptiveOptions::default(),
+            &mut acc,
+            &mut SysClock,
+            &mut target,
+            1.0,
+        ) {
+            Ok(s) => println!(
+                "frame done in {} ms (preview {} ms): {} samples, {} paths",
+                s.total_micros / 1000,
+                s.preview_micros / 1000,
+                s.samples,
+                s.stats.paths
+            ),
+            Err(_) => fail("drawing a tile"),
+        }
     }
     halt()
 }

@@ -1,29 +1,34 @@
 //! micropt on a Raspberry Pi Pico 2 (RP2350, two Cortex-M33 cores with
 //! FPUs at 150 MHz) with a Pimoroni Pico Display Pack 2.0 (ST7789, 2.0",
-//! 320×240), rendering the Cornell box on both cores, progressively, tile
-//! by tile, straight to the panel through `mipidsi`.
+//! 320×240), rendering the Cornell box at 16 samples a pixel on both cores
+//! and denoising it on the board, row by row, straight to the panel
+//! through `mipidsi`.
 //!
-//! Both cores run the core's shared executor
-//! (`micropt::multicore::render_shared`): a preview of every tile (sample 0
-//! of one pixel per 2×2 block), then every tile refined to its share of
-//! [`BUDGET`] with adaptive allocation, each core taking the next tile from
-//! one queue of atomic counters (`micropt::multicore::AtomicQueue`). Each
-//! core keeps one 16×16 tile of sample accumulators (`TileAccum`, 5 KiB,
-//! static) and draws its finished tiles itself, holding the panel for one
-//! window write. The image does not depend on which core rendered which tile:
-//! with `Budget::Spp(16)` it is the host's `micropt render
-//! scenes/cornell.scene --size 320x240 --spp 16 --seed 0`, bit for bit. There
-//! is no framebuffer (one would fit in the RP2350's 520 KiB, but the render
-//! does not need it). The FPUs do the f32 arithmetic (no float routine is
-//! linked for it).
+//! The denoised frame (`examples/board/denoised.rs`): core 1 renders the
+//! odd pixels of each row and hands them to core 0 (`mailbox.rs`); core 0
+//! renders the even ones and runs micropt's streaming denoiser, which asks
+//! for each pixel a few rows ahead of the row it filters and gives each
+//! row as soon as it is chosen; the row goes to the panel at once. No frame
+//! of samples and no framebuffer: static RAM is the denoiser's rings (one
+//! `Column` of 796 bytes a pixel of a row: 254,720 bytes), a row of moments
+//! each side and one of colours. The image is the host's `micropt render
+//! scenes/cornell.scene --size 320x240 --spp 16 --seed 0 --uniform
+//! --denoise`, bit for bit. With `--features raw` the example renders the
+//! raw frame instead, through the core's shared tile executor
+//! (`micropt::multicore::render_shared`): a preview of every tile, then
+//! every tile refined with adaptive allocation, each core taking the next
+//! tile from one queue of atomic counters; that image is `micropt render
+//! scenes/cornell.scene --size 320x240 --spp 16 --seed 0`. The FPUs do the
+//! f32 arithmetic (no float routine is linked for it).
 //!
 //! What it shows: the panel is cleared to black before the backlight comes
-//! on, then the preview fills it in tile by tile, then the refined tiles
-//! replace it. The pack's RGB LED: blue while rendering, green when the
-//! frame is done, red blinking N times (then a pause, again) when init
-//! step N failed ([`Step`]). Over a debug probe (`cargo run --release`:
-//! `probe-rs run`), defmt prints each step, the preview's and each tenth
-//! of the refinement's progress, and the frame time.
+//! on, then the denoised rows appear from the top (the raw frame: the
+//! preview fills it in tile by tile, then the refined tiles replace it).
+//! The pack's RGB LED: blue while rendering, green when the frame is done,
+//! red blinking N times (then a pause, again) when init step N failed
+//! ([`Step`]). Over a debug probe (`cargo run --release`: `probe-rs run`),
+//! defmt prints each step, each tenth of the rows (or of the refinement),
+//! and the frame time.
 //!
 //! Wiring: none, the Display Pack 2.0 plugs onto the Pico 2's headers. It uses
 //! (Pimoroni's pinout):
@@ -42,22 +47,28 @@
 #![no_std]
 #![no_main]
 
+#[cfg(not(feature = "raw"))]
+#[path = "../../../board/denoised.rs"]
+mod denoised;
+#[cfg(feature = "raw")]
 #[path = "../../../board/locked_panel.rs"]
 mod locked_panel;
+#[cfg(not(feature = "raw"))]
+#[path = "../../../board/mailbox.rs"]
+mod mailbox;
 #[path = "../../../board/pico.rs"]
 mod pico;
+#[cfg(feature = "raw")]
 #[path = "../../../board/progress.rs"]
 mod progress;
 
 use defmt_rtt as _;
 use panic_probe as _;
 
-use core::cell::{Cell, RefCell};
-use core::sync::atomic::AtomicBool;
+use core::cell::Cell;
 use critical_section::Mutex;
-use defmt::{info, warn};
+use defmt::info;
 use embedded_graphics::draw_target::DrawTarget;
-use embedded_graphics::geometry::Size;
 use embedded_graphics::pixelcolor::{Rgb565, RgbColor};
 use embedded_hal::digital::OutputPin;
 use embedded_hal_bus::spi::{ExclusiveDevice, NoDelay};
@@ -66,17 +77,20 @@ use hal::fugit::RateExtU32;
 use hal::gpio::bank0::{Gpio16, Gpio17, Gpio18, Gpio19};
 use hal::gpio::{FunctionSioOutput, FunctionSpi, Pin, PinState, PullDown};
 use hal::multicore::{Multicore, Stack};
-use locked_panel::LockedPanel;
-use micropt::Budget;
-use micropt::film::tile_count;
-use micropt::multicore::AtomicQueue;
 use mipidsi::interface::SpiInterface;
 use mipidsi::models::ST7789;
 use mipidsi::options::{ColorInversion, Orientation, Rotation};
 use mipidsi::{Builder, NoResetPin};
-use pico::{BLUE, Led, Step, core0, core1, fail, report};
-use progress::Progress;
+use pico::{Led, Step, fail};
 use rp235x_hal as hal;
+#[cfg(not(feature = "raw"))]
+use static_cell::ConstStaticCell;
+#[cfg(feature = "raw")]
+use {
+    core::cell::RefCell, core::sync::atomic::AtomicBool, embedded_graphics::geometry::Size,
+    locked_panel::LockedPanel, micropt::Budget, micropt::film::tile_count,
+    micropt::multicore::AtomicQueue, progress::Progress,
+};
 
 /// Tells the boot ROM that this is an Arm executable (in the first 4 KiB
 /// of flash: memory.x).
@@ -90,8 +104,13 @@ const XTAL_HZ: u32 = 12_000_000;
 const WIDTH: u32 = 320;
 /// Panel size (landscape).
 const HEIGHT: u32 = 240;
-/// The render budget: 16 samples per pixel on average. A sample budget
-/// (`Spp` or `Paths`): the two-core executor refuses a deadline.
+/// Samples per pixel of the denoised frame (every pixel the same: the
+/// denoiser's variance estimate needs each pixel's own samples).
+#[cfg(not(feature = "raw"))]
+const SPP: u32 = 16;
+/// The raw frame's budget: 16 samples per pixel on average. A sample
+/// budget (`Spp` or `Paths`): the two-core executor refuses a deadline.
+#[cfg(feature = "raw")]
 const BUDGET: Budget = Budget::Spp(16);
 /// Render seed.
 const SEED: u64 = 0;
@@ -113,17 +132,32 @@ type Panel = mipidsi::Display<
     NoResetPin,
 >;
 
-/// The panel, drawn to by both cores, one tile at a time.
+/// The panel as both cores see it, each drawing its tiles (counted for
+/// the progress log): the raw frame. (The denoised frame is drawn by core
+/// 0 alone.)
+#[cfg(feature = "raw")]
 static PANEL: Mutex<RefCell<Option<Progress<Panel>>>> = Mutex::new(RefCell::new(None));
 /// The two cores' tile queue.
+#[cfg(feature = "raw")]
 static QUEUE: AtomicQueue = AtomicQueue::new(2);
 /// The queue when core 1 did not start.
+#[cfg(feature = "raw")]
 static QUEUE_ALONE: AtomicQueue = AtomicQueue::new(1);
+/// Set by core 1 if it could not draw to the panel.
+#[cfg(feature = "raw")]
+static CORE1_FAILED: AtomicBool = AtomicBool::new(false);
+
+/// Half a row, rounded up: the odd pixels core 1 renders.
+#[cfg(not(feature = "raw"))]
+const HALF: usize = (WIDTH as usize).div_ceil(2);
+/// The denoised frame's memory: the denoiser's rings, rows of moments and
+/// colours, the two cores' mailbox.
+#[cfg(not(feature = "raw"))]
+static MEMORY: ConstStaticCell<pico::Statics<{ WIDTH as usize }, HALF>> =
+    ConstStaticCell::new(pico::Statics::new());
 /// Core 1's stack: 16 KiB, its tile accumulators static (the render's
 /// stack depth measured in QEMU: docs/boards.md).
 static CORE1_STACK: Stack<4096> = Stack::new();
-/// Set by core 1 if it could not draw to the panel.
-static CORE1_FAILED: AtomicBool = AtomicBool::new(false);
 /// The 1 MHz timer, for log timestamps (set once the clocks run).
 static TIMER: Mutex<Cell<Option<Timer0>>> = Mutex::new(Cell::new(None));
 
@@ -204,7 +238,7 @@ fn main() -> ! {
     };
     let di = SpiInterface::new(device, dc, buffer);
     // the panel is 240×320 portrait; turned a quarter for 320×240
-    let Ok(mut panel) = Builder::new(ST7789, di)
+    let Ok::<Panel, _>(mut panel) = Builder::new(ST7789, di)
         .display_size(HEIGHT as u16, WIDTH as u16)
         .orientation(Orientation::new().rotate(Rotation::Deg90))
         .invert_colors(ColorInversion::Inverted)
@@ -217,54 +251,45 @@ fn main() -> ! {
     }
     let _ = backlight.set_high();
     info!("panel ready (cleared, backlight on)");
-    let tiles = tile_count(WIDTH, HEIGHT) as u32;
-    critical_section::with(|cs| {
-        PANEL
-            .borrow_ref_mut(cs)
-            .replace(Progress::new(panel, tiles, report))
-    });
-
-    let (renderer, acc0, acc1) = pico::setup(&mut led, WIDTH, HEIGHT, SEED);
-    let size = Size::new(WIDTH, HEIGHT);
-
-    led.set(BLUE);
-    info!(
-        "rendering {=u32} tiles on two cores: preview, then refinement",
-        tiles
-    );
-    let start = now_us();
+    let renderer = pico::setup(&mut led, WIDTH, HEIGHT, SEED);
     let mut mc = Multicore::new(&mut pac.PSM, &mut pac.PPB, &mut sio.fifo);
     let cores = mc.cores();
-    let spawned = match CORE1_STACK.take() {
-        Some(stack) => cores[1]
-            .spawn(stack, move || {
-                let target = LockedPanel {
-                    panel: &PANEL,
-                    size,
-                };
-                core1(&renderer, BUDGET, acc1, &QUEUE, target, &CORE1_FAILED)
-            })
-            .is_ok(),
-        None => false,
-    };
-    let queue = if spawned {
-        &QUEUE
-    } else {
-        warn!("core 1 did not start: core 0 renders alone");
-        &QUEUE_ALONE
-    };
-    let target = LockedPanel {
-        panel: &PANEL,
-        size,
-    };
-    core0(
-        &renderer,
-        BUDGET,
-        acc0,
-        queue,
-        target,
-        &CORE1_FAILED,
+
+    #[cfg(not(feature = "raw"))]
+    pico::denoised(
+        renderer,
+        SPP,
+        MEMORY.try_take(),
+        |part| match CORE1_STACK.take() {
+            Some(stack) => cores[1].spawn(stack, move || part.run()).is_ok(),
+            None => false,
+        },
+        panel,
         &mut led,
-        (start, now_us),
-    )
+        now_us,
+    );
+
+    #[cfg(feature = "raw")]
+    {
+        let tiles = tile_count(WIDTH, HEIGHT) as u32;
+        let counted = Progress::new(panel, tiles, pico::report);
+        critical_section::with(|cs| PANEL.borrow_ref_mut(cs).replace(counted));
+        let target = || LockedPanel {
+            panel: &PANEL,
+            size: Size::new(WIDTH, HEIGHT),
+        };
+        pico::raw(
+            renderer,
+            BUDGET,
+            (&QUEUE, &QUEUE_ALONE),
+            &CORE1_FAILED,
+            target,
+            |part| match CORE1_STACK.take() {
+                Some(stack) => cores[1].spawn(stack, move || part.run()).is_ok(),
+                None => false,
+            },
+            &mut led,
+            now_us,
+        )
+    }
 }
