@@ -228,7 +228,7 @@ enum Kind {
 
 /// Every `MICROPT_FW_*` setting of the `firmware` feature but the machine
 /// and its memory map (read by `main`).
-const SETTINGS: [Setting; 11] = [
+const SETTINGS: [Setting; 12] = [
     Setting {
         var: "MICROPT_FW_SCENE",
         kind: Kind::Path,
@@ -270,6 +270,12 @@ const SETTINGS: [Setting; 11] = [
         kind: Kind::Flag,
         default: Some("0"),
         selects: "uniform samples into whole-frame moments, then the core's denoiser (needs MICROPT_FW_SPP, not MICROPT_FW_BUDGET_MS)",
+    },
+    Setting {
+        var: "MICROPT_FW_PASSES",
+        kind: Kind::Unsigned,
+        default: Some("0"),
+        selects: "the demo's first K passes (pass k: MICROPT_FW_SPP x 2^k samples in every pixel, streamed, raw or with MICROPT_FW_DENOISE=1 denoised), K in 0..=17 (0: off); the image after the last",
     },
     Setting {
         var: "MICROPT_FW_SKIP_OFF",
@@ -525,6 +531,19 @@ fn firmware_config(root: &Path, out: &Path, machine: &Machine) -> Result<(), Str
                 .into(),
         );
     }
+    let passes = settings.int("MICROPT_FW_PASSES").unwrap_or(0);
+    if passes > 17 {
+        return Err(format!(
+            "MICROPT_FW_PASSES={passes}: the demo has passes 0..=16 (K at most 17)"
+        ));
+    }
+    if passes > 0 && settings.int("MICROPT_FW_BUDGET_MS").is_some() {
+        return Err(
+            "MICROPT_FW_PASSES renders MICROPT_FW_SPP x 2^k samples in every pixel: \
+             unset MICROPT_FW_BUDGET_MS"
+                .into(),
+        );
+    }
     let scene_rel = settings.text("MICROPT_FW_SCENE");
     let scene_path = root.join(&scene_rel);
     println!("cargo:rerun-if-changed={}", scene_path.display());
@@ -592,6 +611,7 @@ fn config_source(
     };
     let uniform = settings.flag("MICROPT_FW_UNIFORM");
     let denoise = settings.flag("MICROPT_FW_DENOISE");
+    let passes = settings.int("MICROPT_FW_PASSES").unwrap_or(0);
     let force_bvh = settings.flag("MICROPT_FW_FORCE_BVH");
     let cores = settings.text("MICROPT_FW_CORES");
     let output = settings.text("MICROPT_FW_OUT");
@@ -627,6 +647,9 @@ fn config_source(
          /// Denoised: uniform samples into moments, then the denoiser.\n\
          #[allow(dead_code)] // only the single-core firmware reads it\n\
          pub const DENOISE: bool = {denoise};\n\
+         /// The demo's passes (0: not the demo's).\n\
+         #[allow(dead_code)] // only the single-core firmware reads it\n\
+         pub const PASSES: u32 = {passes};\n\
          /// The integrator's skip switches.\n\
          pub const SKIP: micropt::Skip = micropt::Skip {{ {skip_fields}}};\n\
          /// The skip switches, for the summary line.\n\

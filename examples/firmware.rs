@@ -106,8 +106,13 @@ type FirmwareScene = Scene<MAX_SPHERES, MAX_PLANES, MAX_MATERIALS>;
 type Fb =
     Framebuffer<Rgb565, RawU16, BigEndian, WIDTH, HEIGHT, { buffer_size::<Rgb565>(WIDTH, HEIGHT) }>;
 
-/// Pixels of the whole-frame sample moments (none without the denoiser).
-const MOMENT_PIXELS: usize = if config::DENOISE { WIDTH * HEIGHT } else { 0 };
+/// Pixels of the whole-frame sample moments (none without the denoiser,
+/// none for the demo's passes, which stream).
+const MOMENT_PIXELS: usize = if config::DENOISE && config::PASSES == 0 {
+    WIDTH * HEIGHT
+} else {
+    0
+};
 /// Columns of the denoiser's rings (none without it).
 const DENOISE_COLUMNS: usize = if config::DENOISE { WIDTH } else { 0 };
 
@@ -131,6 +136,7 @@ impl DenoiseMemory {
 /// Everything that can go wrong, each reported on the host's stderr.
 enum Error {
     Denoise(denoise::DenoiseError),
+    Demo(micropt::demo::DemoError),
     #[cfg(feature = "parser")]
     Parse(micropt::parse::ParseError),
     #[cfg(not(feature = "parser"))]
@@ -306,7 +312,11 @@ fn run(
     };
     mark(); // scene loaded, camera set up
 
-    let sum = if config::DENOISE {
+    let sum = if config::PASSES > 0 {
+        // the demo's passes, each streamed into the framebuffer (a mark
+        // after each)
+        render_passes(&renderer, dn, fb, &mut clock)?
+    } else if config::DENOISE {
         // every pixel's SPP samples into its moments, then the denoiser
         // into the framebuffer (the marks: rendered, denoised)
         render_denoised(&renderer, dn, fb, &mut clock)?
@@ -330,6 +340,53 @@ fn run(
 
     summary(&sum, fb.data().len(), stack_high_water());
     Ok(())
+}
+
+/// `MICROPT_FW_PASSES=K`: the demo's passes 0 to K − 1 (pass k at `SPP ·
+/// 2^k` samples in every pixel), each streamed into the framebuffer as the
+/// demo streams it to a panel (`micropt::demo::render_pass`: raw, or
+/// denoised with `MICROPT_FW_DENOISE=1`; no whole-frame moments), a mark
+/// after each. The image after the last is bit-identical with `micropt
+/// render SCENE --spp SPP --passes K [--denoise] --size WxH --seed S -o
+/// out.rgb565`. (Not inlined: its stack is not live in the other paths.)
+#[inline(never)]
+fn render_passes(
+    renderer: &Renderer<'_>,
+    dn: &mut DenoiseMemory,
+    fb: &mut Fb,
+    clock: &mut BoardClock,
+) -> Result<Summary, Error> {
+    use embedded_graphics::prelude::Point;
+    use micropt::budget::Clock;
+    use micropt::demo::{OneCore, pass_spp, render_pass};
+    let start = clock.micros();
+    let mut stats = micropt::Stats::default();
+    let mut samples = 0u64;
+    for k in 0..config::PASSES {
+        let spp = pass_spp(config::SPP, k);
+        render_pass(
+            renderer,
+            spp,
+            !config::DENOISE,
+            &mut dn.columns,
+            &mut OneCore,
+            &mut stats,
+            |y, x, c| {
+                let colour = Rgb565::from_encoded(micropt::film::tone_map(c, EXPOSURE), x, y);
+                fb.set_pixel(Point::new(x as i32, y as i32), colour);
+            },
+            |_| true,
+        )
+        .map_err(Error::Demo)?;
+        samples += (WIDTH * HEIGHT) as u64 * u64::from(spp);
+        mark(); // pass k in the framebuffer
+    }
+    Ok(Summary {
+        samples,
+        stats,
+        preview_micros: 0,
+        total_micros: clock.micros().saturating_sub(start),
+    })
 }
 
 /// `MICROPT_FW_DENOISE=1`: `SPP` samples of every pixel into its moments
@@ -397,8 +454,13 @@ fn summary(sum: &Summary, bytes: usize, stack: usize) {
         Budget::Paths(p) => write!(o, "paths {p}"),
         Budget::Spp(n) => write!(o, "spp {n}"),
     };
+    if config::PASSES > 0 {
+        let _ = write!(o, " {} demo passes", config::PASSES);
+    }
     let _ = o.write_str(if config::DENOISE {
         " uniform denoised skip "
+    } else if config::PASSES > 0 {
+        " uniform raw skip "
     } else if config::ADAPTIVE {
         " adaptive skip "
     } else {
@@ -647,6 +709,7 @@ fn report(e: &Error) {
         #[cfg(not(feature = "parser"))]
         Error::Scene(e) => writeln!(o, "the scene built in code: {e}"),
         Error::Denoise(e) => writeln!(o, "denoiser: {e}"),
+        Error::Demo(e) => writeln!(o, "demo pass: {e}"),
         Error::Camera => o.write_str("invalid camera for the image size\n"),
         #[cfg(target_arch = "arm")]
         Error::Peripherals => o.write_str("core peripherals already taken\n"),

@@ -51,6 +51,8 @@
 pub mod analysis;
 pub mod budget;
 pub mod camera;
+#[cfg(feature = "parser")]
+pub mod demo;
 pub mod denoise;
 pub mod error;
 pub mod film;

@@ -222,6 +222,14 @@ struct RenderArgs {
     /// [-1, 1], toward the camera ray). Renders as --denoise does.
     #[arg(long, value_name = "PFM", conflicts_with_all = ["budget_paths", "budget_ms"])]
     aov_normal: Option<PathBuf>,
+    /// The image the demo (examples/demo.rs, the board examples) shows
+    /// after K passes: pass k renders --spp (default 1 here) times 2^k
+    /// samples in every pixel, so this is the render at --spp · 2^(K-1),
+    /// raw (each pixel's mean) or, with --denoise, denoised; bit for bit
+    /// the demo's and the firmware's MICROPT_FW_PASSES=K (passes keep
+    /// nothing from each other, so only the last is rendered). K in 1..=17.
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(1..=i64::from(micropt::demo::LAST_PASS) + 1), conflicts_with_all = ["budget_paths", "budget_ms"])]
+    passes: Option<u32>,
     #[command(flatten)]
     frame: FrameArgs,
     /// Exposure multiplier applied before tone mapping (PNG, rgb565).
@@ -394,7 +402,7 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
             ));
         }
     }
-    if a.denoise || a.aov_albedo.is_some() || a.aov_normal.is_some() {
+    if a.denoise || a.aov_albedo.is_some() || a.aov_normal.is_some() || a.passes.is_some() {
         return render_denoised_to(&a, &scene, width, height, &output);
     }
     let budget = match (a.spp, a.budget_paths, a.budget_ms) {
@@ -485,8 +493,8 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// `micropt render --denoise` (or with a guide output): uniform samples
-/// into moments, the core's denoiser, the outputs.
+/// `micropt render --denoise` (or with a guide output, or `--passes`):
+/// uniform samples into moments, the core's denoiser, the outputs.
 fn render_denoised_to(
     a: &RenderArgs,
     scene: &micropt_host::render::HostScene,
@@ -499,10 +507,23 @@ fn render_denoised_to(
             return Err(format!("{}: a guide is written as PFM (.pfm)", p.display()));
         }
     }
+    let spp = match a.passes {
+        Some(k) => {
+            let spp = micropt::demo::pass_spp(a.spp.unwrap_or(1), k - 1);
+            if spp > MAX_SPP {
+                return Err(format!(
+                    "--passes {k} at --spp {}: {spp} samples per pixel, more than {MAX_SPP}",
+                    a.spp.unwrap_or(1)
+                ));
+            }
+            spp
+        }
+        None => a.spp.unwrap_or(64),
+    };
     let job = RenderJob {
         width,
         height,
-        spp: a.spp.unwrap_or(64),
+        spp,
         seed: a.frame.seed,
         threads: a.frame.threads.map_or(0, |t| t as usize),
         options: a.options(),
@@ -527,6 +548,7 @@ fn render_denoised_to(
             "adaptive": false,
             "estimator": "uniform (unbiased)",
             "denoised": a.denoise,
+            "passes": a.passes,
             "spp": job.spp,
             "seed": a.frame.seed,
             "seconds": out.seconds,

@@ -688,3 +688,40 @@ fn denoise_writes_every_format_denoised_and_the_guides() {
         "cannot be used with",
     );
 }
+
+#[test]
+fn passes_give_the_demos_image_after_k_passes() {
+    // pass k renders --spp · 2^k samples: after 3 passes at --spp 2, the
+    // render at 8, denoised or raw (each pixel's mean, as the demo shows it)
+    let cornell = scene("cornell.scene");
+    let cornell = cornell.to_str().unwrap();
+    for denoise in [true, false] {
+        let (a, b) = (tmp("passes-a.rgb565"), tmp("passes-b.rgb565"));
+        let (a_s, b_s) = (a.to_str().unwrap(), b.to_str().unwrap());
+        let mut args = vec!["render", cornell, "--size", "24x16", "--seed", "4"];
+        if denoise {
+            args.push("--denoise");
+        }
+        let passes = [args.clone(), vec!["--spp", "2", "--passes", "3", "-o", a_s]].concat();
+        assert!(run(&passes).status.success());
+        if denoise {
+            let plain = [args.clone(), vec!["--spp", "8", "-o", b_s]].concat();
+            assert!(run(&plain).status.success());
+        } else {
+            // raw: the budget arithmetic, one pass at 8
+            let plain = [args.clone(), vec!["--spp", "8", "--passes", "1", "-o", b_s]].concat();
+            assert!(run(&plain).status.success());
+        }
+        assert_eq!(
+            std::fs::read(&a).unwrap(),
+            std::fs::read(&b).unwrap(),
+            "denoise {denoise}"
+        );
+    }
+    let out = run(&["render", cornell, "--passes", "18", "-o", "x.png"]);
+    assert_clean_error(&out, "--passes");
+    let out = run(&[
+        "render", cornell, "--spp", "1048576", "--passes", "2", "-o", "x.png",
+    ]);
+    assert_clean_error(&out, "more than 1048576");
+}

@@ -418,11 +418,19 @@ impl<'w> Denoiser<'w> {
     /// row, [`RADIUS`] rows ahead of the row whose candidates are
     /// computed); `emit(y, x, colour)` receives each output pixel, row by
     /// row ([`CHOICE_RADIUS`] rows behind).
-    pub fn run(
+    pub fn run(&mut self, fill: impl FnMut(u32, u32) -> Texel, emit: impl FnMut(u32, u32, Color)) {
+        self.run_while(fill, emit, |_| true);
+    }
+
+    /// [`Denoiser::run`], asking `go_on(y)` after each output row `y`
+    /// whether to go on: `false` stops the run there (a demo's button
+    /// press). Returns whether every row was emitted.
+    pub fn run_while(
         &mut self,
         mut fill: impl FnMut(u32, u32) -> Texel,
         mut emit: impl FnMut(u32, u32, Color),
-    ) {
+        mut go_on: impl FnMut(u32) -> bool,
+    ) -> bool {
         let h = self.height;
         let mut filled = 0;
         for y in 0..h {
@@ -433,12 +441,20 @@ impl<'w> Denoiser<'w> {
             }
             self.candidates(y);
             if y >= CHOICE_RADIUS {
-                self.choose(y - CHOICE_RADIUS, &mut emit);
+                let out = y - CHOICE_RADIUS;
+                self.choose(out, &mut emit);
+                if !go_on(out as u32) {
+                    return false;
+                }
             }
         }
         for y in h.saturating_sub(CHOICE_RADIUS)..h {
             self.choose(y, &mut emit);
+            if !go_on(y as u32) {
+                return false;
+            }
         }
+        true
     }
 
     /// Row `y`'s texels into the rings: the tap's and the centre's parts,
@@ -787,14 +803,29 @@ pub fn denoise_moments(
 /// there, and keeps no frame of moments. Otherwise as [`denoise_moments`].
 pub fn denoise_with(
     renderer: &crate::render::Renderer<'_>,
+    pixel: impl FnMut(u32, u32) -> Moments,
+    n: u32,
+    columns: &mut [Column],
+    on_guide: impl FnMut(u32, u32, &Guide),
+    emit: impl FnMut(u32, u32, Color),
+) -> Result<(), DenoiseError> {
+    denoise_while(renderer, pixel, n, columns, on_guide, emit, |_| true).map(|_| ())
+}
+
+/// [`denoise_with`], asking `go_on(y)` after each output row `y` whether
+/// to go on ([`Denoiser::run_while`]). Returns whether every row was
+/// emitted.
+pub fn denoise_while(
+    renderer: &crate::render::Renderer<'_>,
     mut pixel: impl FnMut(u32, u32) -> Moments,
     n: u32,
     columns: &mut [Column],
     mut on_guide: impl FnMut(u32, u32, &Guide),
     emit: impl FnMut(u32, u32, Color),
-) -> Result<(), DenoiseError> {
+    go_on: impl FnMut(u32) -> bool,
+) -> Result<bool, DenoiseError> {
     let mut d = Denoiser::new(renderer.width(), renderer.height(), columns)?;
-    d.run(
+    Ok(d.run_while(
         |y, x| {
             let m = pixel(x, y);
             let g = guide(renderer, x, y);
@@ -802,6 +833,6 @@ pub fn denoise_with(
             Texel::new(&m, n, &g)
         },
         emit,
-    );
-    Ok(())
+        go_on,
+    ))
 }

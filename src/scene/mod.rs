@@ -203,6 +203,26 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
         &self.camera
     }
 
+    /// Moves the camera (a demo's orbit) and makes the load-time analysis
+    /// again, since what it proves depends on where the camera is (which
+    /// lights face it, whether it is inside a sphere). An invalid camera is
+    /// refused and the scene left as it was.
+    pub fn set_camera(&mut self, spec: CameraSpec) -> Result<(), crate::camera::CameraError> {
+        spec.validate()?;
+        self.camera = spec;
+        crate::analysis::analyse_into(
+            &mut self.analysis,
+            &self.spheres,
+            &self.planes,
+            &self.materials,
+            &self.camera,
+        );
+        if !cfg!(micropt_no_bvh) {
+            self.set_bvh(crate::analysis::tree_pays(self.analysis.listed_view.len()));
+        }
+        Ok(())
+    }
+
     /// The default image size, if the scene sets one.
     pub fn resolution(&self) -> Option<(u32, u32)> {
         self.resolution

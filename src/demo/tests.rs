@@ -1,0 +1,274 @@
+//! The demo's state machine on a small in-memory panel: passes, presses,
+//! the orbit, the status line and its errors.
+
+use super::*;
+use core::convert::Infallible;
+use embedded_graphics::geometry::OriginDimensions;
+use embedded_graphics::pixelcolor::Rgb565;
+
+const W: usize = 16;
+const H: usize = 12;
+
+/// A panel in memory.
+struct Panel {
+    px: [[Rgb565; W]; H],
+}
+
+impl Panel {
+    fn new() -> Self {
+        Self {
+            px: [[Rgb565::new(0, 0, 0); W]; H],
+        }
+    }
+}
+
+impl OriginDimensions for Panel {
+    fn size(&self) -> Size {
+        Size::new(W as u32, H as u32)
+    }
+}
+
+impl DrawTarget for Panel {
+    type Color = Rgb565;
+    type Error = Infallible;
+
+    fn draw_iter<I>(&mut self, pixels: I) -> Result<(), Infallible>
+    where
+        I: IntoIterator<Item = Pixel<Rgb565>>,
+    {
+        for Pixel(p, c) in pixels {
+            if let Some(px) = self
+                .px
+                .get_mut(p.y as usize)
+                .and_then(|r| r.get_mut(p.x as usize))
+            {
+                *px = c;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A clock that advances `step` microseconds each time it is read.
+struct Ticks {
+    now: u64,
+    step: u64,
+}
+
+impl Clock for Ticks {
+    fn micros(&mut self) -> u64 {
+        self.now += self.step;
+        self.now
+    }
+}
+
+const ENTRIES: [Entry; 2] = [
+    Entry {
+        name: "spo",
+        text: include_str!("../../scenes/sphere-over-plane.scene"),
+    },
+    Entry {
+        name: "cornell",
+        text: include_str!("../../scenes/cornell.scene"),
+    },
+];
+
+type TestScene = Scene<8, 8, 8>;
+
+fn demo<'a>(scene: &'a mut TestScene, columns: &'a mut [Column]) -> Demo<'a, 8, 8, 8> {
+    Demo::new(&ENTRIES, scene, columns, (W as u32, H as u32), 1, 3).unwrap()
+}
+
+#[test]
+fn passes_double_their_samples_and_stop_at_the_last() {
+    assert_eq!(pass_spp(1, 0), 1);
+    assert_eq!(pass_spp(1, 4), 16);
+    assert_eq!(pass_spp(3, 2), 12);
+    assert_eq!(pass_spp(1, LAST_PASS + 9), 1 << LAST_PASS);
+    assert_eq!(pass_spp(u32::MAX, 3), u32::MAX);
+}
+
+#[test]
+fn a_full_orbit_comes_back_and_keeps_the_distance_to_the_target() {
+    let spec = CameraSpec::pinhole(
+        Vec3::new(0.0, 1.0, 5.0),
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::new(0.0, 2.0, 0.0),
+        40.0,
+    );
+    assert_eq!(orbit(&spec, ORBIT_STEPS), orbit(&spec, 0));
+    assert_eq!(orbit(&spec, 0).eye, spec.eye);
+    for k in 0..ORBIT_STEPS {
+        let o = orbit(&spec, k);
+        let d = (o.eye - o.target).length();
+        assert!((d - 5.0).abs() < 1e-5, "step {k}: distance {d}");
+        // about the up axis: the height stays
+        assert!((o.eye.y - 1.0).abs() < 1e-6, "step {k}: {:?}", o.eye);
+        assert_eq!((o.target, o.up, o.vfov_deg), (spec.target, spec.up, 40.0));
+    }
+    // a quarter turn about +y takes +z to +x, half a turn to −z
+    let q = orbit(&spec, ORBIT_STEPS / 4).eye;
+    assert!((q.x - 5.0).abs() < 1e-5 && q.z.abs() < 1e-5, "{q:?}");
+    let h = orbit(&spec, ORBIT_STEPS / 2).eye;
+    assert!((h.z + 5.0).abs() < 1e-5 && h.x.abs() < 1e-5, "{h:?}");
+}
+
+#[test]
+fn each_pass_shows_the_denoised_render_at_its_budget() {
+    let mut scene = TestScene::EMPTY;
+    let mut columns = [Column::EMPTY; W];
+    let mut d = demo(&mut scene, &mut columns);
+    d.apply(Command::Status).unwrap();
+    let (mut panel, mut line) = (Panel::new(), [Rgb565::new(0, 0, 0); W]);
+    let mut clock = Ticks { now: 0, step: 1 };
+    for k in 0..3 {
+        let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None);
+        assert!(matches!(step, Ok(Step::Done(p)) if p.pass == k && p.spp == 1 << k));
+    }
+    // the same pass rendered apart from the demo: 4 samples a pixel
+    let mut other = TestScene::EMPTY;
+    crate::parse::parse_into(ENTRIES[0].text, &mut other).unwrap();
+    let r = Renderer::new(&other, W as u32, H as u32).unwrap().seed(3);
+    let mut cols = [Column::EMPTY; W];
+    let mut stats = Stats::default();
+    let mut want = [[Rgb565::new(0, 0, 0); W]; H];
+    denoise::denoise_with(
+        &r,
+        |x, y| pixel_moments(&r, 4, x, y, &mut stats),
+        4,
+        &mut cols,
+        |_, _, _| {},
+        |y, x, c| want[y as usize][x as usize] = Rgb565::from_encoded(tone_map(c, 1.0), x, y),
+    )
+    .unwrap();
+    assert_eq!(panel.px, want);
+}
+
+#[test]
+fn a_press_stops_the_pass_and_a_new_scene_starts_again_at_the_preview() {
+    let mut scene = TestScene::EMPTY;
+    let mut columns = [Column::EMPTY; W];
+    let mut d = demo(&mut scene, &mut columns);
+    let (mut panel, mut line) = (Panel::new(), [Rgb565::new(0, 0, 0); W]);
+    let mut clock = Ticks { now: 0, step: 1 };
+    for _ in 0..3 {
+        d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None)
+            .unwrap();
+    }
+    assert_eq!(d.pass(), 3);
+    // the third row's poll says "next scene"
+    let mut rows = 0;
+    let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || {
+        rows += 1;
+        (rows == 3).then_some(Command::NextScene)
+    });
+    assert_eq!(step, Ok(Step::Interrupted(Command::NextScene)));
+    assert_eq!(rows, 3);
+    assert_eq!((d.pass(), d.settings().scene, d.last()), (0, 1, None));
+    let mut cornell = TestScene::EMPTY;
+    crate::parse::parse_into(ENTRIES[1].text, &mut cornell).unwrap();
+    assert_eq!(d.scene().camera(), cornell.camera());
+    // a new exposure shows the same pass again; the orbit starts again
+    for _ in 0..2 {
+        d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None)
+            .unwrap();
+    }
+    d.apply(Command::Exposure).unwrap();
+    assert_eq!((d.pass(), d.settings().exposure), (1, 1));
+    d.apply(Command::Denoise).unwrap();
+    assert_eq!((d.pass(), d.settings().raw), (1, true));
+    let before = *d.scene().camera();
+    d.apply(Command::Orbit).unwrap();
+    assert_eq!(d.pass(), 0);
+    assert_ne!(d.scene().camera().eye, before.eye);
+    // and the last scene wraps to the first
+    d.apply(Command::NextScene).unwrap();
+    assert_eq!((d.settings().scene, d.settings().orbit), (0, 0));
+}
+
+#[test]
+fn after_the_last_pass_the_image_stays() {
+    let mut scene = TestScene::EMPTY;
+    let mut columns = [Column::EMPTY; 2];
+    let mut d: Demo<'_, 8, 8, 8> =
+        Demo::new(&ENTRIES, &mut scene, &mut columns, (2, 2), 1, 0).unwrap();
+    d.apply(Command::Denoise).unwrap();
+    let (mut panel, mut line) = (Panel::new(), [Rgb565::new(0, 0, 0); 2]);
+    let mut clock = Ticks { now: 0, step: 1 };
+    for k in 0..=LAST_PASS {
+        let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None);
+        assert!(matches!(step, Ok(Step::Done(p)) if p.pass == k), "{step:?}");
+    }
+    let held = panel.px;
+    for _ in 0..3 {
+        let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None);
+        assert_eq!(step, Ok(Step::Idle));
+    }
+    assert_eq!(panel.px, held);
+    // a press starts over
+    d.apply(Command::Orbit).unwrap();
+    assert_eq!(d.pass(), 0);
+}
+
+#[test]
+fn the_status_line_gives_scene_budget_time_noise_and_mode() {
+    let mut scene = TestScene::EMPTY;
+    let mut columns = [Column::EMPTY; W];
+    let mut d = demo(&mut scene, &mut columns);
+    let (mut panel, mut line) = (Panel::new(), [Rgb565::new(0, 0, 0); W]);
+    let mut text: heapless::String<64> = heapless::String::new();
+    d.status(&mut text).unwrap();
+    assert_eq!(text.as_str(), "spo preview dn");
+    // each read of this clock is 8.1 s later: the pass takes 8.1 s
+    let mut clock = Ticks {
+        now: 0,
+        step: 8_100_000,
+    };
+    d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None)
+        .unwrap();
+    let Ok(Step::Done(p)) = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None) else {
+        panic!("the pass did not finish")
+    };
+    assert!(p.noise > 0.0 && p.noise < 10.0, "{p:?}");
+    text.clear();
+    d.status(&mut text).unwrap();
+    let want_noise = {
+        let mut s: heapless::String<16> = heapless::String::new();
+        decimal(&mut s, (p.noise * 1000.0) as u64, 3, 3).unwrap();
+        s
+    };
+    assert_eq!(
+        text.as_str(),
+        ["spo 2spp 8.1s err ", want_noise.as_str(), " dn"].concat()
+    );
+    d.apply(Command::Exposure).unwrap();
+    d.apply(Command::Orbit).unwrap();
+    text.clear();
+    d.status(&mut text).unwrap();
+    assert_eq!(text.as_str(), "spo preview dn x2 orbit 1/12");
+    // drawn white on black over the last rows (status is on)
+    d.draw_status(&mut panel).unwrap();
+    let band = &panel.px[H - STATUS_HEIGHT as usize..];
+    assert!(band.iter().flatten().any(|&c| c == Rgb565::new(31, 63, 31)));
+    assert!(band.iter().flatten().any(|&c| c == Rgb565::new(0, 0, 0)));
+}
+
+#[test]
+fn a_scene_that_does_not_parse_is_an_error_naming_its_line() {
+    let bad = [Entry {
+        name: "bad",
+        text: "camera 0 0 4  0 0 0  0 1 0  40\nsphere 0 0 0 1 nowhere\n",
+    }];
+    let mut scene = TestScene::EMPTY;
+    let mut columns = [Column::EMPTY; W];
+    let e = Demo::new(&bad, &mut scene, &mut columns, (16, 12), 1, 0).unwrap_err();
+    assert!(matches!(e, DemoError::Scene(0, p) if p.line == 2), "{e:?}");
+    let mut text: heapless::String<128> = heapless::String::new();
+    write!(text, "{e}").unwrap();
+    assert!(text.starts_with("compiled-in scene 0: line 2: "), "{text}");
+    let mut narrow = [Column::EMPTY; 4];
+    let e = Demo::<8, 8, 8>::new(&ENTRIES, &mut scene, &mut narrow, (16, 12), 1, 0).unwrap_err();
+    assert_eq!(e, DemoError::Workspace);
+    let e = Demo::<8, 8, 8>::new(&[], &mut scene, &mut columns, (16, 12), 1, 0).unwrap_err();
+    assert_eq!(e, DemoError::NoScenes);
+}
