@@ -24,36 +24,12 @@
 use embedded_graphics::pixelcolor::Rgb565;
 use embedded_graphics::prelude::*;
 use embedded_graphics_simulator::{OutputSettingsBuilder, SimulatorDisplay};
-use micropt::demo::{Demo, Entry, OneCore, Step};
+use micropt::demo::{Demo, OneCore, SCENES, Step};
 use micropt::denoise::Column;
 use micropt::{Clock, Scene};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
-
-/// The compiled-in scenes, in button order.
-const ENTRIES: [Entry; 5] = [
-    Entry {
-        name: "cornell",
-        text: include_str!("../scenes/cornell.scene"),
-    },
-    Entry {
-        name: "spheres",
-        text: include_str!("../scenes/spheres.scene"),
-    },
-    Entry {
-        name: "gloss",
-        text: include_str!("../scenes/gloss.scene"),
-    },
-    Entry {
-        name: "dof",
-        text: include_str!("../scenes/dof.scene"),
-    },
-    Entry {
-        name: "many",
-        text: include_str!("../scenes/many.scene"),
-    },
-];
 
 /// Microseconds since the demo started.
 struct Wall(Instant);
@@ -135,7 +111,7 @@ fn run(a: Args) -> Result<(), String> {
     let (w, h) = a.size;
     let mut scene: Box<Scene> = Box::new(Scene::EMPTY);
     let mut columns = vec![Column::EMPTY; w as usize];
-    let mut demo = Demo::new(&ENTRIES, &mut scene, &mut columns, (w, h), 1, a.seed)
+    let mut demo = Demo::new(&SCENES, &mut scene, &mut columns, (w, h), 1, a.seed)
         .map_err(|e| e.to_string())?;
     let mut display: SimulatorDisplay<Rgb565> = SimulatorDisplay::new(Size::new(w, h));
     let mut line = vec![Rgb565::BLACK; w as usize];
@@ -207,49 +183,65 @@ mod window {
     use micropt::demo::Command;
     use std::cell::RefCell;
     use std::collections::VecDeque;
-    use std::rc::Rc;
+    use std::time::Duration;
 
-    /// The simulator's display and its window: each row drawn is shown
-    /// (the window refreshed every few rows), and the keys pressed
-    /// meanwhile are queued as commands.
-    struct Screen {
-        display: SimulatorDisplay<Rgb565>,
+    /// The window and the keys pressed in it, as commands.
+    struct Keys {
         window: Window,
-        /// Shared with the demo's poll, which reads it after each row.
-        keys: Rc<RefCell<VecDeque<Command>>>,
-        rows: u32,
+        queue: VecDeque<Command>,
+        last: Instant,
     }
 
-    impl Screen {
-        fn refresh(&mut self) {
-            self.window.update(&self.display);
-            let mut keys = self.keys.borrow_mut();
+    impl Keys {
+        /// Reads the window's events (at most every 20 ms: the demo asks
+        /// before each pixel).
+        fn pump(&mut self) {
+            if self.last.elapsed() < Duration::from_millis(20) {
+                return;
+            }
+            self.last = Instant::now();
             for e in self.window.events() {
-                match e {
+                let c = match e {
                     // the window closed: nothing to keep
                     SimulatorEvent::Quit => std::process::exit(0),
                     SimulatorEvent::KeyDown { keycode, .. } => match keycode {
-                        Keycode::A => keys.push_back(Command::NextScene),
-                        Keycode::B => keys.push_back(Command::Exposure),
-                        Keycode::X => keys.push_back(Command::Orbit),
-                        Keycode::Y => keys.push_back(Command::Denoise),
-                        Keycode::S => keys.push_back(Command::Status),
+                        Keycode::A => Command::NextScene,
+                        Keycode::B => Command::Exposure,
+                        Keycode::X => Command::Orbit,
+                        Keycode::Y => Command::Denoise,
+                        Keycode::S => Command::Status,
                         Keycode::Escape | Keycode::Q => std::process::exit(0),
-                        _ => {}
+                        _ => continue,
                     },
-                    _ => {}
-                }
+                    _ => continue,
+                };
+                self.queue.push_back(c);
             }
         }
     }
 
-    impl OriginDimensions for Screen {
+    /// The simulator's display, shown in the window as rows are drawn (at
+    /// most every 40 ms).
+    struct Screen<'k> {
+        display: SimulatorDisplay<Rgb565>,
+        keys: &'k RefCell<Keys>,
+        shown: Instant,
+    }
+
+    impl Screen<'_> {
+        fn show(&mut self) {
+            self.shown = Instant::now();
+            self.keys.borrow_mut().window.update(&self.display);
+        }
+    }
+
+    impl OriginDimensions for Screen<'_> {
         fn size(&self) -> Size {
             self.display.size()
         }
     }
 
-    impl DrawTarget for Screen {
+    impl DrawTarget for Screen<'_> {
         type Color = Rgb565;
         type Error = core::convert::Infallible;
 
@@ -265,9 +257,8 @@ mod window {
             I: IntoIterator<Item = Rgb565>,
         {
             self.display.fill_contiguous(area, colors)?;
-            self.rows += 1;
-            if self.rows.is_multiple_of(8) {
-                self.refresh();
+            if self.shown.elapsed() >= Duration::from_millis(40) {
+                self.show();
             }
             Ok(())
         }
@@ -280,29 +271,40 @@ mod window {
         clock: &mut Wall,
     ) -> Result<(), String> {
         let settings = OutputSettingsBuilder::new().scale(2).build();
-        let keys = Rc::new(RefCell::new(VecDeque::new()));
-        let mut screen = Screen {
-            display,
+        let keys = RefCell::new(Keys {
             window: Window::new(
                 "micropt demo (a scene, b exposure, x orbit, y raw, s status)",
                 &settings,
             ),
-            keys: Rc::clone(&keys),
-            rows: 0,
+            queue: VecDeque::new(),
+            last: Instant::now(),
+        });
+        let mut screen = Screen {
+            display,
+            keys: &keys,
+            shown: Instant::now(),
         };
+        // the window opens at its first update
+        screen.show();
         loop {
-            // a key pressed during a pass stops it after the row being drawn
+            // a key pressed during a pass stops it before the next pixel
             let step = demo
                 .step(&mut screen, line, &mut OneCore, clock, || {
-                    keys.borrow_mut().pop_front()
+                    let mut k = keys.borrow_mut();
+                    k.pump();
+                    k.queue.pop_front()
                 })
                 .map_err(|e| e.to_string())?;
-            screen.refresh();
+            screen.show();
             if step == Step::Idle {
                 // the last pass is on the screen: wait for a key
-                std::thread::sleep(std::time::Duration::from_millis(20));
+                std::thread::sleep(Duration::from_millis(20));
             }
-            let next = keys.borrow_mut().pop_front();
+            let next = {
+                let mut k = keys.borrow_mut();
+                k.pump();
+                k.queue.pop_front()
+            };
             if let Some(c) = next {
                 demo.apply(c).map_err(|e| e.to_string())?;
             }

@@ -358,7 +358,7 @@ fn render_passes(
 ) -> Result<Summary, Error> {
     use embedded_graphics::prelude::Point;
     use micropt::budget::Clock;
-    use micropt::demo::{OneCore, pass_spp, render_pass};
+    use micropt::demo::{pass_spp, pixel_moments, render_pass};
     let start = clock.micros();
     let mut stats = micropt::Stats::default();
     let mut samples = 0u64;
@@ -369,8 +369,7 @@ fn render_passes(
             spp,
             !config::DENOISE,
             &mut dn.columns,
-            &mut OneCore,
-            &mut stats,
+            |x, y| pixel_moments(renderer, spp, x, y, &mut stats),
             |y, x, c| {
                 let colour = Rgb565::from_encoded(micropt::film::tone_map(c, EXPOSURE), x, y);
                 fb.set_pixel(Point::new(x as i32, y as i32), colour);

@@ -52,6 +52,33 @@ pub struct Entry {
     pub text: &'static str,
 }
 
+/// The shipped scenes (the repository's `scenes/`), in the order the
+/// demo steps through them: `many` (482 spheres, a scene of about 100 KB)
+/// last, so that a board short of RAM takes the first four.
+#[cfg(feature = "parser")]
+pub const SCENES: [Entry; 5] = [
+    Entry {
+        name: "cornell",
+        text: include_str!("../scenes/cornell.scene"),
+    },
+    Entry {
+        name: "spheres",
+        text: include_str!("../scenes/spheres.scene"),
+    },
+    Entry {
+        name: "gloss",
+        text: include_str!("../scenes/gloss.scene"),
+    },
+    Entry {
+        name: "dof",
+        text: include_str!("../scenes/dof.scene"),
+    },
+    Entry {
+        name: "many",
+        text: include_str!("../scenes/many.scene"),
+    },
+];
+
 /// What a button asks of the demo.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Command {
@@ -233,26 +260,26 @@ pub fn pixel_moments(
 }
 
 /// One pass of `renderer`'s image at `spp` samples a pixel, raw (each
-/// pixel's mean) or denoised, row by row: `emit(y, x, colour)` receives
-/// each output pixel (linear radiance), `go_on(y)` after each row says
-/// whether to go on. Returns whether every row was emitted, and the raw
-/// image's noise estimate ([`PassStats::noise`]). The demo's pass, the
-/// firmware's `MICROPT_FW_PASSES` and the host's `--passes` all run this.
-#[allow(clippy::too_many_arguments)]
+/// pixel's mean) or denoised, row by row: `pixel(x, y)` gives each pixel's
+/// moments when asked (row by row, left to right; [`pixel_moments`], or a
+/// [`Pixels`] source), `emit(y, x, colour)` receives each output pixel
+/// (linear radiance), `go_on(y)` after each row says whether to go on.
+/// Returns whether every row was emitted, and the raw image's noise
+/// estimate ([`PassStats::noise`]). The demo's pass, the firmware's
+/// `MICROPT_FW_PASSES` and the host's `--passes` all run this.
 pub fn render_pass(
     renderer: &Renderer<'_>,
     spp: u32,
     raw: bool,
     columns: &mut [Column],
-    pixels: &mut impl Pixels,
-    stats: &mut Stats,
+    mut pixel: impl FnMut(u32, u32) -> Moments,
     mut emit: impl FnMut(u32, u32, Color),
     mut go_on: impl FnMut(u32) -> bool,
 ) -> Result<(bool, f32), DemoError> {
     let (w, h) = (renderer.width(), renderer.height());
     let mut noise = 0.0f32;
     let mut pixel = |x: u32, y: u32| {
-        let m = pixels.moments(renderer, spp, x, y, stats);
+        let m = pixel(x, y);
         noise += relative_variance(&m, spp);
         m
     };
@@ -289,6 +316,97 @@ fn relative_variance(m: &Moments, n: u32) -> f32 {
     let b = m.mean(n).luminance();
     let r = var / (b * b + 0.01);
     if math::is_finite(r) { r } else { 0.0 }
+}
+
+/// How long a button must read the same before its state counts (contact
+/// bounce).
+pub const DEBOUNCE_US: u64 = 20_000;
+/// A press held this long is a long press.
+pub const LONG_PRESS_US: u64 = 600_000;
+
+/// A finished press of button `i` of a [`Buttons`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Press {
+    /// Released before [`LONG_PRESS_US`].
+    Short(usize),
+    /// Held [`LONG_PRESS_US`] (reported then; its release is not a press).
+    Long(usize),
+}
+
+/// `N` debounced buttons, read by the board whenever it likes (the demo
+/// asks before each pixel): a state counts once it has read the same for
+/// [`DEBOUNCE_US`].
+#[derive(Clone, Copy, Debug)]
+pub struct Buttons<const N: usize> {
+    /// The last reading, and since when it has read so.
+    raw: [bool; N],
+    since: [u64; N],
+    /// The debounced state, and since when it has been down.
+    down: [bool; N],
+    down_at: [u64; N],
+    /// Whether this press was reported as long already.
+    long: [bool; N],
+}
+
+impl<const N: usize> Buttons<N> {
+    /// Every button up.
+    pub const fn new() -> Self {
+        Self {
+            raw: [false; N],
+            since: [0; N],
+            down: [false; N],
+            down_at: [0; N],
+            long: [false; N],
+        }
+    }
+
+    /// One reading of every button (`true`: pressed) at `now`
+    /// microseconds: the press it finishes, if any (the lowest button's,
+    /// if several).
+    pub fn update(&mut self, now: u64, pressed: [bool; N]) -> Option<Press> {
+        let mut out = None;
+        for (i, &p) in pressed.iter().enumerate() {
+            let (Some(raw), Some(since)) = (self.raw.get_mut(i), self.since.get_mut(i)) else {
+                continue;
+            };
+            if p != *raw {
+                *raw = p;
+                *since = now;
+                continue;
+            }
+            let stable = now.saturating_sub(*since) >= DEBOUNCE_US;
+            let (Some(down), Some(down_at), Some(long)) = (
+                self.down.get_mut(i),
+                self.down_at.get_mut(i),
+                self.long.get_mut(i),
+            ) else {
+                continue;
+            };
+            let event = if stable && p != *down {
+                *down = p;
+                if p {
+                    *down_at = *since;
+                    *long = false;
+                    None
+                } else {
+                    (!*long).then_some(Press::Short(i))
+                }
+            } else if *down && !*long && now.saturating_sub(*down_at) >= LONG_PRESS_US {
+                *long = true;
+                Some(Press::Long(i))
+            } else {
+                None
+            };
+            out = out.or(event);
+        }
+        out
+    }
+}
+
+impl<const N: usize> Default for Buttons<N> {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 /// `spec`'s eye turned by `steps` [`ORBIT_STEPS`]-ths of a turn about the
@@ -435,9 +553,10 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
     /// Renders the next pass into `target` (its panel, `width × height`),
     /// each row as it is ready, tone-mapped at the exposure and dithered
     /// (`line`: one row of colours); `pixels` renders the pixels, `clock`
-    /// times the pass, `poll()` is asked after each row whether a button
-    /// was pressed (the command is applied and the pass left there). After
-    /// a finished pass the status line is drawn (if on).
+    /// times the pass, `poll()` is asked before each pixel whether a
+    /// button was pressed (the command is applied and the pass left there,
+    /// its rows not yet drawn left as they were). After a finished pass the
+    /// status line is drawn (if on).
     pub fn step<D, K>(
         &mut self,
         target: &mut D,
@@ -469,15 +588,28 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
         let start = clock.micros();
         let mut stats = Stats::default();
         let failed = core::cell::Cell::new(false);
-        let mut pressed = None;
+        // a press, asked for before each pixel: the pass stops within a
+        // pixel's samples (the rest of its row is not rendered, and no row
+        // is drawn after it)
+        let pressed = core::cell::Cell::new(None);
         let (done, noise) = render_pass(
             &renderer,
             spp,
             self.settings.raw,
             self.columns,
-            pixels,
-            &mut stats,
+            |x, y| {
+                if pressed.get().is_none() {
+                    pressed.set(poll());
+                }
+                if pressed.get().is_some() {
+                    return Moments::ZERO;
+                }
+                pixels.moments(&renderer, spp, x, y, &mut stats)
+            },
             |y, x, c| {
+                if pressed.get().is_some() {
+                    return;
+                }
                 if let Some(px) = line.get_mut(x as usize) {
                     *px = D::Color::from_encoded(tone_map(c, exposure), x, y);
                 }
@@ -489,15 +621,12 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
                     }
                 }
             },
-            |_| {
-                pressed = poll();
-                pressed.is_none() && !failed.get()
-            },
+            |_| pressed.get().is_none() && !failed.get(),
         )?;
         if failed.get() {
             return Err(DemoError::Draw);
         }
-        if let Some(c) = pressed {
+        if let Some(c) = pressed.get() {
             self.apply(c)?;
             if self.settings.status {
                 self.draw_status(target)?;

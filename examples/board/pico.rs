@@ -1,32 +1,34 @@
-//! What the two Pico examples share: each core's part of a frame (the
-//! denoised frame through `denoised.rs`, or with the `raw` feature the
-//! progressive raw frame through `micropt::multicore::render_shared`), and
-//! what they tell the user: defmt
+//! What the two Pico examples share: the demo on core 0
+//! (`micropt::demo`: passes, buttons, scenes), or with the `raw` feature
+//! each core's part of the progressive raw frame through
+//! `micropt::multicore::render_shared`, and what they tell the user: defmt
 //! log lines (over RTT, to a debug probe) and the Pimoroni Display Pack's
 //! RGB LED (GP6 red, GP7 green, GP8 blue, active low): blue while
 //! rendering, green when done, red blinking a failed step's number.
 //!
 //! Shared by the Pico board crates in `examples/boards/` (`#[path]`).
 
-use defmt::{error, info, warn};
+#[cfg(feature = "raw")]
+use defmt::warn;
+use defmt::{error, info};
 use embedded_graphics::draw_target::DrawTarget;
 use embedded_hal::digital::{OutputPin, PinState};
-use micropt::{Renderer, Scene};
-#[cfg(not(feature = "raw"))]
-use {
-    crate::denoised,
-    crate::mailbox::{Mailbox, TwoCores},
-    embedded_graphics::pixelcolor::{Rgb565, RgbColor},
-    micropt::denoise::{Column, Moments},
-};
+use micropt::Scene;
 #[cfg(feature = "raw")]
 use {
     crate::progress::Milestone,
     core::sync::atomic::{AtomicBool, Ordering},
+    micropt::Renderer,
     micropt::budget::TileAccum,
     micropt::film::FromEncoded,
     micropt::multicore::{Pass, SharedError, WorkQueue, render_shared, wait_all},
     micropt::{AdaptiveOptions, Budget},
+};
+#[cfg(not(feature = "raw"))]
+use {
+    embedded_graphics::pixelcolor::{Rgb565, RgbColor},
+    micropt::demo::{Buttons, Command, Demo, DemoError, Entry, OneCore, Press, Step as DemoStep},
+    micropt::denoise::Column,
 };
 
 /// The init steps; a failed one is logged and blinked on the red LED (its
@@ -85,15 +87,18 @@ pub fn fail<P: OutputPin>(led: &mut Led<P>, step: Step) -> ! {
     }
 }
 
-/// The scene, parsed on the board.
+/// The raw frame's scene, parsed on the board.
+#[cfg(feature = "raw")]
 const SCENE_TEXT: &str = include_str!("../../scenes/cornell.scene");
 /// Fixed capacities: enough for cornell.scene (3 spheres, 6 planes, 6
 /// materials); a bigger scene gives a capacity error, not a panic.
+#[cfg(feature = "raw")]
 type BoardScene = Scene<4, 8, 8>;
 
 /// The scene parsed in place (static) and the renderer of a `width` ×
 /// `height` image with `seed`. A failed step is logged and blinked on
 /// `led`.
+#[cfg(feature = "raw")]
 pub fn setup<P: OutputPin>(
     led: &mut Led<P>,
     width: u32,
@@ -113,60 +118,79 @@ pub fn setup<P: OutputPin>(
     renderer.seed(seed)
 }
 
-/// A denoised frame's static memory, `W` pixels wide (`N` = `W / 2`
-/// rounded up): core 0's [`DenoiseMemory`], core 1's half row of moments
-/// and the [`Mailbox`] between them. All zero bits (.bss, not flash).
+/// The demo's static memory: the denoiser's rings (one `Column` a pixel
+/// of a row, `W` wide), one row of panel colours, and the scene being
+/// shown (`S` spheres, `P` planes, `M` materials at most). All zero bits
+/// (.bss, not flash).
 #[cfg(not(feature = "raw"))]
-pub struct Statics<const W: usize, const N: usize> {
+pub struct DemoMemory<const W: usize, const S: usize, const P: usize, const M: usize> {
     columns: [Column; W],
-    row: [Moments; W],
     line: [Rgb565; W],
-    odd: [Moments; N],
-    mailbox: Mailbox<N>,
+    scene: Scene<S, P, M>,
 }
 
 #[cfg(not(feature = "raw"))]
-impl<const W: usize, const N: usize> Statics<W, N> {
-    /// Before the frame.
+impl<const W: usize, const S: usize, const P: usize, const M: usize> DemoMemory<W, S, P, M> {
+    /// Before the demo.
     pub const fn new() -> Self {
         Self {
             columns: [Column::EMPTY; W],
-            row: [Moments::ZERO; W],
             line: [Rgb565::BLACK; W],
-            odd: [Moments::ZERO; N],
-            mailbox: Mailbox::new(),
+            scene: Scene::EMPTY,
         }
     }
 }
 
-/// What core 1 is given to run ([`Core1Part::run`]).
+/// The Display Pack's buttons A, B, X, Y (GP12–GP15) as the demo's
+/// commands: A the next scene, B the exposure, X the camera's orbit, Y
+/// raw or denoised, Y held the status line.
 #[cfg(not(feature = "raw"))]
-pub struct Core1Part<const N: usize> {
-    renderer: Renderer<'static>,
-    spp: u32,
-    mailbox: &'static Mailbox<N>,
-    odd: &'static mut [Moments],
-}
-
-#[cfg(not(feature = "raw"))]
-impl<const N: usize> Core1Part<N> {
-    /// Core 1's part of the frame ([`denoised_core1`]).
-    pub fn run(self) -> ! {
-        denoised_core1(&self.renderer, self.spp, self.mailbox, self.odd)
+pub fn command(p: Press) -> Option<Command> {
+    match p {
+        Press::Short(0) | Press::Long(0) => Some(Command::NextScene),
+        Press::Short(1) | Press::Long(1) => Some(Command::Exposure),
+        Press::Short(2) | Press::Long(2) => Some(Command::Orbit),
+        Press::Short(3) => Some(Command::Denoise),
+        Press::Long(3) => Some(Command::Status),
+        _ => None,
     }
 }
 
-/// A denoised frame on both cores, and its end: `spawn` starts core 1 on
-/// its part (and says whether it started); core 0 does the rest
-/// ([`denoised_core0`]) into `target`. `statics` is `None` if it was
-/// taken before (a bug: blinked as [`Step::Memory`]).
+/// The init step a demo error is blinked as.
 #[cfg(not(feature = "raw"))]
-pub fn denoised<D, P, const W: usize, const N: usize>(
-    renderer: Renderer<'static>,
-    spp: u32,
-    statics: Option<&'static mut Statics<W, N>>,
-    spawn: impl FnOnce(Core1Part<N>) -> bool,
-    target: D,
+fn step_of(e: &DemoError) -> Step {
+    match e {
+        DemoError::NoScenes | DemoError::Scene(..) => Step::Scene,
+        DemoError::Camera(_) => Step::Renderer,
+        DemoError::Workspace => Step::Memory,
+        DemoError::Draw => Step::Draw,
+    }
+}
+
+/// The time since boot for the demo's status line.
+#[cfg(not(feature = "raw"))]
+struct Micros(fn() -> u64);
+
+#[cfg(not(feature = "raw"))]
+impl micropt::Clock for Micros {
+    fn micros(&mut self) -> u64 {
+        (self.0)()
+    }
+}
+
+/// The demo, forever, on core 0: pass after pass of `entries` into
+/// `target` (`size`, rendered with `seed`), `pressed()` read before each pixel (A, B, X, Y;
+/// `true`: pressed), debounced ([`Buttons`]). The LED: blue while a pass
+/// renders, green when the last pass is on the panel; a failure is logged
+/// and blinked (`step_of`: [`Step::Scene`] for a scene that does not
+/// parse, [`Step::Draw`] for the panel).
+#[cfg(not(feature = "raw"))]
+pub fn demo<D, P, const W: usize, const S: usize, const PL: usize, const M: usize>(
+    entries: &'static [Entry],
+    memory: Option<&'static mut DemoMemory<W, S, PL, M>>,
+    (size, seed): ((u32, u32), u64),
+    mut target: D,
+    mut pressed: impl FnMut() -> [bool; 4],
     led: &mut Led<P>,
     now: fn() -> u64,
 ) -> !
@@ -174,129 +198,48 @@ where
     D: DrawTarget<Color = Rgb565>,
     P: OutputPin,
 {
-    let Some(Statics {
+    let Some(DemoMemory {
         columns,
-        row,
         line,
-        odd,
-        mailbox,
-    }) = statics
+        scene,
+    }) = memory
     else {
         fail(led, Step::Memory)
     };
-    let mailbox: &'static Mailbox<N> = mailbox;
-    led.set(BLUE);
-    info!(
-        "rendering and denoising {=u32} rows at {=u32} spp on two cores",
-        renderer.height(),
-        spp
-    );
-    let start = now();
-    let spawned = spawn(Core1Part {
-        renderer,
-        spp,
-        mailbox,
-        odd,
-    });
-    if !spawned {
-        warn!("core 1 did not start: core 0 renders alone");
-    }
-    let mem = DenoiseMemory { columns, row, line };
-    denoised_core0(
-        &renderer,
-        spp,
-        spawned.then_some(mailbox),
-        mem,
-        target,
-        led,
-        (start, now),
-    )
-}
-
-/// What a denoised frame streams through on core 0: the denoiser's rings
-/// (one `Column` a pixel of a row), one row of moments and one row of
-/// panel colours, each at least the image's width.
-#[cfg(not(feature = "raw"))]
-pub struct DenoiseMemory {
-    /// The denoiser's rings.
-    pub columns: &'static mut [Column],
-    /// One row of moments.
-    pub row: &'static mut [Moments],
-    /// One row of panel colours.
-    pub line: &'static mut [Rgb565],
-}
-
-/// Core 1's part of a denoised frame: the odd pixels of every row, `spp`
-/// samples each, into `mailbox` (`scratch`: half a row of moments); then
-/// it logs its paths and sleeps.
-#[cfg(not(feature = "raw"))]
-pub fn denoised_core1<const N: usize>(
-    r: &Renderer<'_>,
-    spp: u32,
-    mailbox: &Mailbox<N>,
-    scratch: &mut [Moments],
-) -> ! {
-    let s = mailbox.render_odd(r, spp, scratch);
-    info!("core 1: {=u64} paths", s.paths);
-    loop {
-        cortex_m::asm::wfi();
-    }
-}
-
-/// Core 0's part of a denoised frame and its end: the even pixels of every
-/// row (all of them if `mailbox` is `None`: core 1 did not start), the
-/// denoiser, each row to `target` as it is chosen; then it logs the frame
-/// time (from `start`, by `now`, in microseconds) and lights the LED
-/// green, or red blinks if a row could not be drawn.
-#[cfg(not(feature = "raw"))]
-pub fn denoised_core0<D, P, const N: usize>(
-    r: &Renderer<'_>,
-    spp: u32,
-    mailbox: Option<&Mailbox<N>>,
-    mem: DenoiseMemory,
-    mut target: D,
-    led: &mut Led<P>,
-    (start, now): (u64, fn() -> u64),
-) -> !
-where
-    D: DrawTarget<Color = Rgb565>,
-    P: OutputPin,
-{
-    let mut source = TwoCores {
-        mailbox,
-        row: mem.row,
-        stats: micropt::Stats::default(),
-    };
-    let h = r.height();
-    let result = denoised::frame(
-        r,
-        spp,
-        1.0,
-        mem.columns,
-        mem.line,
-        |x, y| source.pixel(r, spp, x, y),
-        &mut target,
-        // each tenth of the rows on the panel
-        |y| {
-            if (y + 1) * 10 / h != y * 10 / h {
-                info!("denoised rows: {=u32}%", (y + 1) * 100 / h);
-            }
-        },
-    );
-    let micros = now().saturating_sub(start);
-    match result {
-        Ok(()) => {
-            info!("core 0: {=u64} paths", source.stats.paths);
-            info!("frame done in {=u64} ms", micros / 1000);
-            led.set(GREEN);
-        }
+    let mut demo = match Demo::new(entries, scene, columns, size, 1, seed) {
+        Ok(d) => d,
         Err(e) => {
-            error!("denoised frame: {=str}", e.what());
-            fail(led, Step::Draw)
+            error!("demo: {}", defmt::Display2Format(&e));
+            fail(led, step_of(&e))
         }
-    }
+    };
+    let mut buttons: Buttons<4> = Buttons::new();
+    let mut clock = Micros(now);
+    let mut poll = move || buttons.update(now(), pressed()).and_then(command);
     loop {
-        cortex_m::asm::wfi();
+        led.set(BLUE);
+        match demo.step(&mut target, line, &mut OneCore, &mut clock, &mut poll) {
+            Ok(DemoStep::Done(_)) => {
+                let mut text: heapless::String<64> = heapless::String::new();
+                let _ = demo.status(&mut text);
+                info!("{=str}", text.as_str());
+            }
+            Ok(DemoStep::Interrupted(c)) => info!("button: {}", defmt::Debug2Format(&c)),
+            Ok(DemoStep::Idle) => {
+                led.set(GREEN);
+                if let Some(c) = poll() {
+                    info!("button: {}", defmt::Debug2Format(&c));
+                    if let Err(e) = demo.apply(c) {
+                        error!("demo: {}", defmt::Display2Format(&e));
+                        fail(led, step_of(&e))
+                    }
+                }
+            }
+            Err(e) => {
+                error!("demo: {}", defmt::Display2Format(&e));
+                fail(led, step_of(&e))
+            }
+        }
     }
 }
 

@@ -156,14 +156,24 @@ fn a_press_stops_the_pass_and_a_new_scene_starts_again_at_the_preview() {
             .unwrap();
     }
     assert_eq!(d.pass(), 3);
-    // the third row's poll says "next scene"
-    let mut rows = 0;
+    // raw, no status line, on a panel painted one colour: the poll before
+    // pixel 5 of row 2 says "next scene"
+    d.apply(Command::Denoise).unwrap();
+    d.apply(Command::Status).unwrap();
+    let sentinel = Rgb565::new(1, 2, 3);
+    panel.px = [[sentinel; W]; H];
+    let mut polls = 0;
     let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || {
-        rows += 1;
-        (rows == 3).then_some(Command::NextScene)
+        polls += 1;
+        (polls == 2 * W + 6).then_some(Command::NextScene)
     });
     assert_eq!(step, Ok(Step::Interrupted(Command::NextScene)));
-    assert_eq!(rows, 3);
+    assert_eq!(polls, 2 * W + 6, "no poll after the press");
+    // rows 0 and 1 drawn, the rest as they were
+    assert!(panel.px[..2].iter().flatten().all(|&c| c != sentinel));
+    assert!(panel.px[2..].iter().flatten().all(|&c| c == sentinel));
+    d.apply(Command::Denoise).unwrap();
+    d.apply(Command::Status).unwrap();
     assert_eq!((d.pass(), d.settings().scene, d.last()), (0, 1, None));
     let mut cornell = TestScene::EMPTY;
     crate::parse::parse_into(ENTRIES[1].text, &mut cornell).unwrap();
@@ -271,4 +281,39 @@ fn a_scene_that_does_not_parse_is_an_error_naming_its_line() {
     assert_eq!(e, DemoError::Workspace);
     let e = Demo::<8, 8, 8>::new(&[], &mut scene, &mut columns, (16, 12), 1, 0).unwrap_err();
     assert_eq!(e, DemoError::NoScenes);
+}
+
+#[test]
+fn buttons_count_after_the_bounce_and_tell_short_from_long() {
+    let mut b: Buttons<2> = Buttons::new();
+    let ms = |t: u64| t * 1000;
+    // contact bounce: readings that flip within the debounce time
+    for (t, p) in [(0, true), (3, false), (6, true), (9, false)] {
+        assert_eq!(b.update(ms(t), [p, false]), None);
+    }
+    assert_eq!(b.update(ms(40), [false, false]), None);
+    // a clean 100 ms press of button 0: short, on release
+    let mut events = [None; 300];
+    for (t, e) in events.iter_mut().enumerate() {
+        let t = 100 + t as u64;
+        *e = b.update(ms(t), [(100..200).contains(&t), false]);
+    }
+    let got: heapless::Vec<Press, 4> = events.iter().flatten().copied().collect();
+    assert_eq!(got.as_slice(), &[Press::Short(0)]);
+    // button 1 held 900 ms: long once, at 600 ms, and its release is nothing
+    let mut got: heapless::Vec<(u64, Press), 4> = heapless::Vec::new();
+    for t in 1000..2200u64 {
+        if let Some(e) = b.update(ms(t), [false, (1000..1900).contains(&t)]) {
+            got.push((t, e)).unwrap();
+        }
+    }
+    assert_eq!(got.as_slice(), &[(1600, Press::Long(1))]);
+    // a press shorter than the debounce time is no press
+    let mut none = true;
+    for t in 3000..3100u64 {
+        none &= b
+            .update(ms(t), [(3000..3010).contains(&t), false])
+            .is_none();
+    }
+    assert!(none);
 }

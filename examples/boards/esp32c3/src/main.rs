@@ -60,9 +60,6 @@
 #[path = "../../../board/softfloat.rs"]
 mod softfloat;
 
-#[cfg(not(feature = "raw"))]
-#[path = "../../../board/denoised.rs"]
-mod denoised;
 #[cfg(feature = "raw")]
 #[path = "../../../board/progress.rs"]
 mod progress;
@@ -77,20 +74,26 @@ use esp_hal::spi::Mode;
 use esp_hal::spi::master::{Config, Spi};
 use esp_hal::time::{Instant, Rate};
 use esp_println::println;
-use micropt::{Renderer, Scene};
+use micropt::Scene;
 use mipidsi::Builder;
 use mipidsi::interface::SpiInterface;
 use mipidsi::models::ST7789;
 use mipidsi::options::ColorInversion;
+#[cfg(not(feature = "raw"))]
+use {
+    esp_hal::gpio::{Input, InputConfig, Pull},
+    micropt::demo::{Buttons, Command, Demo, Entry, OneCore, Press, SCENES as SHIPPED, Step},
+    micropt::denoise::Column,
+    static_cell::ConstStaticCell,
+};
 #[cfg(feature = "raw")]
 use {
+    micropt::Renderer,
     micropt::budget::{TileAccum, render_budget},
     micropt::film::tile_count,
     micropt::{AdaptiveOptions, Budget},
     progress::{Milestone, Progress},
 };
-#[cfg(not(feature = "raw"))]
-use {micropt::denoise::Column, static_cell::ConstStaticCell};
 
 // the application descriptor the ESP-IDF second-stage bootloader checks
 esp_bootloader_esp_idf::esp_app_desc!();
@@ -99,37 +102,56 @@ esp_bootloader_esp_idf::esp_app_desc!();
 const WIDTH: u32 = 240;
 /// Panel size.
 const HEIGHT: u32 = 240;
-/// Samples per pixel of the denoised frame (every pixel the same: the
-/// denoiser's variance estimate needs each pixel's own samples).
-#[cfg(not(feature = "raw"))]
-const SPP: u32 = 16;
 /// The raw frame's budget: 16 samples per pixel on average; e.g.
 /// `Budget::Deadline(60_000_000)` for a frame in a minute.
 #[cfg(feature = "raw")]
 const BUDGET: Budget = Budget::Spp(16);
 /// Render seed.
 const SEED: u64 = 0;
-/// The scene, parsed on the board.
+/// The raw frame's scene, parsed on the board.
+#[cfg(feature = "raw")]
 const SCENE_TEXT: &str = include_str!("../../../../scenes/cornell.scene");
 /// Fixed capacities: enough for cornell.scene (3 spheres, 6 planes, 6
 /// materials); a bigger scene gives a capacity error, not a panic.
+#[cfg(feature = "raw")]
 type BoardScene = Scene<4, 8, 8>;
 
-/// The denoiser's rings: one `Column` a pixel of a row (all zero bits:
-/// .bss).
+/// The demo's scenes (a short press of BOOT steps through them): the
+/// first four shipped.
 #[cfg(not(feature = "raw"))]
-static COLUMNS: ConstStaticCell<[Column; WIDTH as usize]> =
-    ConstStaticCell::new([Column::EMPTY; WIDTH as usize]);
-/// One row of panel colours.
+const SCENES: &[Entry] = match SHIPPED.split_at_checked(4) {
+    Some((first, _)) => first,
+    None => &SHIPPED,
+};
+/// The shipped scenes left out, and why (printed at boot): many, 482
+/// spheres, whose scene (about 100 KB) does not fit beside the denoiser's
+/// rings (191 KB) and the stack in the C3's SRAM.
 #[cfg(not(feature = "raw"))]
-static LINE: ConstStaticCell<[Rgb565; WIDTH as usize]> =
-    ConstStaticCell::new([Rgb565::BLACK; WIDTH as usize]);
+const LEFT_OUT: [(&str, &str); 1] = [(
+    "many",
+    "482 spheres: its scene (about 100 KB) does not fit beside the denoiser's rings (191 KB) and the stack in the C3's SRAM",
+)];
+
+/// The demo's memory: the denoiser's rings (one `Column` a pixel of a
+/// row), a row of panel colours, the scene (at most 80 spheres, 8 planes,
+/// 16 materials). All zero bits: .bss.
+#[cfg(not(feature = "raw"))]
+struct DemoMemory {
+    columns: [Column; WIDTH as usize],
+    line: [Rgb565; WIDTH as usize],
+    scene: Scene<80, 8, 16>,
+}
+
+#[cfg(not(feature = "raw"))]
+static MEMORY: ConstStaticCell<DemoMemory> = ConstStaticCell::new(DemoMemory {
+    columns: [Column::EMPTY; WIDTH as usize],
+    line: [Rgb565::BLACK; WIDTH as usize],
+    scene: Scene::EMPTY,
+});
 
 /// Microseconds since boot, from esp-hal's system timer.
-#[cfg(feature = "raw")]
 struct SysClock;
 
-#[cfg(feature = "raw")]
 impl micropt::Clock for SysClock {
     fn micros(&mut self) -> u64 {
         Instant::now().duration_since_epoch().as_micros()
@@ -205,52 +227,75 @@ fn main() -> ! {
     backlight.set_high();
     println!("panel ready (cleared, backlight on)");
 
-    let mut scene = BoardScene::EMPTY;
-    if let Err(e) = micropt::parse::parse_into(SCENE_TEXT, &mut scene) {
-        println!("scene: {e:?}");
-        fail("scene parse")
-    }
-    let Ok(renderer) = Renderer::new(&scene, WIDTH, HEIGHT) else {
-        fail("renderer setup")
-    };
-    let renderer = renderer.seed(SEED);
-
     #[cfg(not(feature = "raw"))]
     {
-        let (Some(columns), Some(line)) = (COLUMNS.try_take(), LINE.try_take()) else {
-            fail("static memory (taken twice)")
-        };
-        println!("rendering and denoising {HEIGHT} rows at {SPP} spp");
-        let start = Instant::now();
-        let mut stats = micropt::Stats::default();
-        let result = denoised::frame(
-            &renderer,
-            SPP,
-            1.0,
+        // BOOT (GPIO9): to ground when pressed; a short press the next
+        // scene, a long one raw or denoised
+        let boot = Input::new(p.GPIO9, InputConfig::default().with_pull(Pull::Up));
+        let Some(DemoMemory {
             columns,
             line,
-            |x, y| denoised::moments(&renderer, x, y, SPP, &mut stats),
-            &mut panel,
-            // each tenth of the rows on the panel
-            |y| {
-                if (y + 1) * 10 / HEIGHT != y * 10 / HEIGHT {
+            scene,
+        }) = MEMORY.try_take()
+        else {
+            fail("static memory (taken twice)")
+        };
+        for (name, why) in LEFT_OUT {
+            println!("scene {name} left out: {why}");
+        }
+        let mut demo = match Demo::new(SCENES, scene, columns, (WIDTH, HEIGHT), 1, SEED) {
+            Ok(d) => d,
+            Err(e) => {
+                println!("demo: {e}");
+                fail("demo setup")
+            }
+        };
+        let mut buttons: Buttons<1> = Buttons::new();
+        let mut poll = || {
+            let now = Instant::now().duration_since_epoch().as_micros();
+            match buttons.update(now, [boot.is_low()]) {
+                Some(Press::Short(_)) => Some(Command::NextScene),
+                Some(Press::Long(_)) => Some(Command::Denoise),
+                None => None,
+            }
+        };
+        loop {
+            match demo.step(&mut panel, line, &mut OneCore, &mut SysClock, &mut poll) {
+                Ok(Step::Done(_)) => {
+                    let mut text: heapless::String<64> = heapless::String::new();
+                    let _ = demo.status(&mut text);
                     let (s, ms) = stamp();
-                    println!("[{s}.{ms:03}] denoised rows: {}%", (y + 1) * 100 / HEIGHT);
+                    println!("[{s}.{ms:03}] {text}");
                 }
-            },
-        );
-        match result {
-            Ok(()) => println!(
-                "frame done in {} ms: {} paths",
-                start.elapsed().as_millis(),
-                stats.paths
-            ),
-            Err(e) => fail(e.what()),
+                Ok(Step::Interrupted(c)) => println!("button: {c:?}"),
+                Ok(Step::Idle) => {
+                    if let Some(c) = poll() {
+                        println!("button: {c:?}");
+                        if let Err(e) = demo.apply(c) {
+                            println!("demo: {e}");
+                            fail("demo")
+                        }
+                    }
+                }
+                Err(e) => {
+                    println!("demo: {e}");
+                    fail("demo")
+                }
+            }
         }
     }
 
     #[cfg(feature = "raw")]
     {
+        let mut scene = BoardScene::EMPTY;
+        if let Err(e) = micropt::parse::parse_into(SCENE_TEXT, &mut scene) {
+            println!("scene: {e:?}");
+            fail("scene parse")
+        }
+        let Ok(renderer) = Renderer::new(&scene, WIDTH, HEIGHT) else {
+            fail("renderer setup")
+        };
+        let renderer = renderer.seed(SEED);
         let mut acc = TileAccum::new();
         let tiles = tile_count(WIDTH, HEIGHT) as u32;
         let mut target = Progress::new(panel, tiles, report);
@@ -274,8 +319,8 @@ fn main() -> ! {
             ),
             Err(_) => fail("drawing a tile"),
         }
+        halt()
     }
-    halt()
 }
 
 /// Stops here.

@@ -47,15 +47,9 @@
 #![no_std]
 #![no_main]
 
-#[cfg(not(feature = "raw"))]
-#[path = "../../../board/denoised.rs"]
-mod denoised;
 #[cfg(feature = "raw")]
 #[path = "../../../board/locked_panel.rs"]
 mod locked_panel;
-#[cfg(not(feature = "raw"))]
-#[path = "../../../board/mailbox.rs"]
-mod mailbox;
 #[path = "../../../board/pico.rs"]
 mod pico;
 #[cfg(feature = "raw")]
@@ -76,20 +70,29 @@ use hal::Clock as _;
 use hal::fugit::RateExtU32;
 use hal::gpio::bank0::{Gpio16, Gpio17, Gpio18, Gpio19};
 use hal::gpio::{FunctionSioOutput, FunctionSpi, Pin, PinState, PullDown};
-use hal::multicore::{Multicore, Stack};
 use mipidsi::interface::SpiInterface;
 use mipidsi::models::ST7789;
 use mipidsi::options::{ColorInversion, Orientation, Rotation};
 use mipidsi::{Builder, NoResetPin};
 use pico::{Led, Step, fail};
 use rp235x_hal as hal;
-#[cfg(not(feature = "raw"))]
-use static_cell::ConstStaticCell;
 #[cfg(feature = "raw")]
 use {
-    core::cell::RefCell, core::sync::atomic::AtomicBool, embedded_graphics::geometry::Size,
-    locked_panel::LockedPanel, micropt::Budget, micropt::film::tile_count,
-    micropt::multicore::AtomicQueue, progress::Progress,
+    core::cell::RefCell,
+    core::sync::atomic::AtomicBool,
+    embedded_graphics::geometry::Size,
+    hal::multicore::{Multicore, Stack},
+    locked_panel::LockedPanel,
+    micropt::Budget,
+    micropt::film::tile_count,
+    micropt::multicore::AtomicQueue,
+    progress::Progress,
+};
+#[cfg(not(feature = "raw"))]
+use {
+    embedded_hal::digital::InputPin,
+    micropt::demo::{Entry, SCENES as SHIPPED},
+    static_cell::ConstStaticCell,
 };
 
 /// Tells the boot ROM that this is an Arm executable (in the first 4 KiB
@@ -104,10 +107,6 @@ const XTAL_HZ: u32 = 12_000_000;
 const WIDTH: u32 = 320;
 /// Panel size (landscape).
 const HEIGHT: u32 = 240;
-/// Samples per pixel of the denoised frame (every pixel the same: the
-/// denoiser's variance estimate needs each pixel's own samples).
-#[cfg(not(feature = "raw"))]
-const SPP: u32 = 16;
 /// The raw frame's budget: 16 samples per pixel on average. A sample
 /// budget (`Spp` or `Paths`): the two-core executor refuses a deadline.
 #[cfg(feature = "raw")]
@@ -147,14 +146,22 @@ static QUEUE_ALONE: AtomicQueue = AtomicQueue::new(1);
 #[cfg(feature = "raw")]
 static CORE1_FAILED: AtomicBool = AtomicBool::new(false);
 
-/// Half a row, rounded up: the odd pixels core 1 renders.
+/// The demo's scenes (button A steps through them): the first 5 shipped.
 #[cfg(not(feature = "raw"))]
-const HALF: usize = (WIDTH as usize).div_ceil(2);
-/// The denoised frame's memory: the denoiser's rings, rows of moments and
-/// colours, the two cores' mailbox.
+const SCENES: &[Entry] = match SHIPPED.split_at_checked(5) {
+    Some((first, _)) => first,
+    None => &SHIPPED,
+};
+/// The shipped scenes left out, and why (logged at boot).
+/// None.
 #[cfg(not(feature = "raw"))]
-static MEMORY: ConstStaticCell<pico::Statics<{ WIDTH as usize }, HALF>> =
-    ConstStaticCell::new(pico::Statics::new());
+const LEFT_OUT: [(&str, &str); 0] = [];
+/// The demo's memory: the denoiser's rings, a row of colours, the scene
+/// (at most 512 spheres, 8 planes, 32 materials).
+#[cfg(not(feature = "raw"))]
+static MEMORY: ConstStaticCell<pico::DemoMemory<{ WIDTH as usize }, 512, 8, 32>> =
+    ConstStaticCell::new(pico::DemoMemory::new());
+#[cfg(feature = "raw")]
 /// Core 1's stack: 16 KiB, its tile accumulators static (the render's
 /// stack depth measured in QEMU: docs/boards.md).
 static CORE1_STACK: Stack<4096> = Stack::new();
@@ -182,7 +189,7 @@ fn main() -> ! {
             cortex_m::asm::wfi();
         }
     };
-    let mut sio = hal::Sio::new(pac.SIO);
+    let sio = hal::Sio::new(pac.SIO);
     let pins = hal::gpio::Pins::new(
         pac.IO_BANK0,
         pac.PADS_BANK0,
@@ -251,26 +258,41 @@ fn main() -> ! {
     }
     let _ = backlight.set_high();
     info!("panel ready (cleared, backlight on)");
-    let renderer = pico::setup(&mut led, WIDTH, HEIGHT, SEED);
-    let mut mc = Multicore::new(&mut pac.PSM, &mut pac.PPB, &mut sio.fifo);
-    let cores = mc.cores();
-
     #[cfg(not(feature = "raw"))]
-    pico::denoised(
-        renderer,
-        SPP,
-        MEMORY.try_take(),
-        |part| match CORE1_STACK.take() {
-            Some(stack) => cores[1].spawn(stack, move || part.run()).is_ok(),
-            None => false,
-        },
-        panel,
-        &mut led,
-        now_us,
-    );
+    {
+        // the Display Pack's buttons A, B, X, Y: to ground when pressed
+        let mut buttons = [
+            pins.gpio12.into_pull_up_input().into_dyn_pin(),
+            pins.gpio13.into_pull_up_input().into_dyn_pin(),
+            pins.gpio14.into_pull_up_input().into_dyn_pin(),
+            pins.gpio15.into_pull_up_input().into_dyn_pin(),
+        ];
+        for (name, why) in LEFT_OUT {
+            info!("scene {=str} left out: {=str}", name, why);
+        }
+        pico::demo(
+            SCENES,
+            MEMORY.try_take(),
+            ((WIDTH, HEIGHT), SEED),
+            panel,
+            move || {
+                let mut down = [false; 4];
+                for (d, pin) in down.iter_mut().zip(buttons.iter_mut()) {
+                    *d = pin.is_low().unwrap_or(false);
+                }
+                down
+            },
+            &mut led,
+            now_us,
+        )
+    }
 
     #[cfg(feature = "raw")]
     {
+        let renderer = pico::setup(&mut led, WIDTH, HEIGHT, SEED);
+        let mut fifo = sio.fifo;
+        let mut mc = Multicore::new(&mut pac.PSM, &mut pac.PPB, &mut fifo);
+        let cores = mc.cores();
         let tiles = tile_count(WIDTH, HEIGHT) as u32;
         let counted = Progress::new(panel, tiles, pico::report);
         critical_section::with(|cs| PANEL.borrow_ref_mut(cs).replace(counted));
