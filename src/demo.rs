@@ -40,6 +40,7 @@ use embedded_graphics::geometry::{Point, Size};
 use embedded_graphics::mono_font::{MonoTextStyle, ascii::FONT_6X10};
 use embedded_graphics::primitives::Rectangle;
 use embedded_graphics::text::{Baseline, Text};
+use embedded_graphics::transform::Transform;
 use embedded_graphics::{Drawable, Pixel};
 
 /// A scene compiled into the demo.
@@ -283,7 +284,10 @@ pub fn render_pass(
         noise += relative_variance(&m, spp);
         m
     };
-    let done = if raw {
+    // below two samples the denoiser keeps every pixel as rendered, and
+    // its output has the raw mean's bits (n = 1: the sums times 1.0); the
+    // raw path skips its guide rays
+    let done = if raw || spp < 2 {
         let mut done = true;
         'rows: for y in 0..h {
             for x in 0..w {
@@ -587,6 +591,21 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
             .unwrap_or(1.0);
         let start = clock.micros();
         let mut stats = Stats::default();
+        // the first pass is preceded by a quarter of it: each 2 × 2 block
+        // shows its top-left pixel's first sample (a quarter of the work,
+        // drawn over by the pass as its rows land)
+        let preview = if self.pass == 0 {
+            self.block_preview(&renderer, target, line, exposure, &mut poll)?
+        } else {
+            None
+        };
+        if let Some(c) = preview {
+            self.apply(c)?;
+            if self.settings.status {
+                self.draw_status(target)?;
+            }
+            return Ok(Step::Interrupted(c));
+        }
         let failed = core::cell::Cell::new(false);
         // a press, asked for before each pixel: the pass stops within a
         // pixel's samples (the rest of its row is not rendered, and no row
@@ -648,6 +667,47 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
             self.draw_status(target)?;
         }
         Ok(Step::Done(pass))
+    }
+
+    /// The block preview before pass 0: one sample of the top-left pixel
+    /// of each 2 × 2 block (the pixel's sample 0, as pass 0 renders it),
+    /// drawn over the block, two rows at a time. Returns the button
+    /// pressed, if one stopped it (asked before each block).
+    fn block_preview<D>(
+        &self,
+        renderer: &Renderer<'_>,
+        target: &mut D,
+        line: &mut [D::Color],
+        exposure: f32,
+        poll: &mut impl FnMut() -> Option<Command>,
+    ) -> Result<Option<Command>, DemoError>
+    where
+        D: DrawTarget,
+        D::Color: FromEncoded,
+    {
+        let (w, h) = (self.width, self.height);
+        let mut stats = Stats::default();
+        for y in (0..h).step_by(2) {
+            for x in (0..w).step_by(2) {
+                if let Some(c) = poll() {
+                    return Ok(Some(c));
+                }
+                let m = pixel_moments(renderer, 1, x, y, &mut stats);
+                let colour = D::Color::from_encoded(tone_map(m.mean(1), exposure), x, y);
+                for px in line.iter_mut().skip(x as usize).take(2) {
+                    *px = colour;
+                }
+            }
+            let rows = Rectangle::new(Point::new(0, y as i32), Size::new(w, 1));
+            for dy in 0..2u32.min(h - y) {
+                let row = rows.translate(Point::new(0, dy as i32));
+                let colours = line.iter().take(w as usize).copied();
+                target
+                    .fill_contiguous(&row, colours)
+                    .map_err(|_| DemoError::Draw)?;
+            }
+        }
+        Ok(None)
     }
 
     /// The status line's text: scene, samples a pixel, seconds, the noise

@@ -317,3 +317,35 @@ fn buttons_count_after_the_bounce_and_tell_short_from_long() {
     }
     assert!(none);
 }
+
+#[test]
+fn the_first_pass_starts_with_a_preview_of_one_pixel_per_block() {
+    let mut scene = TestScene::EMPTY;
+    let mut columns = [Column::EMPTY; W];
+    let mut d = demo(&mut scene, &mut columns);
+    d.apply(Command::Status).unwrap();
+    let (mut panel, mut line) = (Panel::new(), [Rgb565::new(0, 0, 0); W]);
+    let mut clock = Ticks { now: 0, step: 1 };
+    // the press comes at the first poll after the preview's blocks: the
+    // panel holds the whole preview
+    let blocks = (W / 2) * (H / 2);
+    let mut polls = 0;
+    let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || {
+        polls += 1;
+        (polls == blocks + 1).then_some(Command::Orbit)
+    });
+    assert_eq!(step, Ok(Step::Interrupted(Command::Orbit)));
+    let mut distinct = 0;
+    for by in (0..H).step_by(2) {
+        for bx in (0..W).step_by(2) {
+            let c = panel.px[by][bx];
+            for (y, x) in [(by, bx + 1), (by + 1, bx), (by + 1, bx + 1)] {
+                assert_eq!(panel.px[y][x], c, "block ({bx}, {by})");
+            }
+            distinct += usize::from(bx > 0 && c != panel.px[by][bx - 2]);
+        }
+    }
+    // an image, not a flat fill
+    assert!(distinct > 0);
+    assert_eq!(d.pass(), 0);
+}
