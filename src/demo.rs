@@ -18,10 +18,11 @@
 //! overflows however long it runs: after pass [`LAST_PASS`] the demo holds
 //! its image and waits for a button.
 //!
-//! A button press ([`Demo::apply`]) interrupts the pass after the row
-//! being drawn: a new scene or a new camera position starts again at pass
-//! 0 (the fast preview), a new exposure or the raw/denoised switch
-//! re-renders the pass it interrupted.
+//! Before pass 0 a block preview shows one pixel's first sample per 2 × 2
+//! block (a quarter of pass 0's work). A button press ([`Demo::apply`]),
+//! asked for before every pixel, stops the pass there: a new scene or a
+//! new camera position starts again at the preview, a new exposure or the
+//! raw/denoised switch re-renders the pass it stopped.
 
 use crate::budget::Clock;
 use crate::camera::{CameraError, CameraSpec};
