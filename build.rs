@@ -612,6 +612,7 @@ fn config_source(
     let uniform = settings.flag("MICROPT_FW_UNIFORM");
     let denoise = settings.flag("MICROPT_FW_DENOISE");
     let passes = settings.int("MICROPT_FW_PASSES").unwrap_or(0);
+    let demo = passes > 0;
     let force_bvh = settings.flag("MICROPT_FW_FORCE_BVH");
     let cores = settings.text("MICROPT_FW_CORES");
     let output = settings.text("MICROPT_FW_OUT");
@@ -650,6 +651,9 @@ fn config_source(
          /// The demo's passes (0: not the demo's).\n\
          #[allow(dead_code)] // only the single-core firmware reads it\n\
          pub const PASSES: u32 = {passes};\n\
+         /// Whether the firmware runs the demo's passes (`PASSES` > 0).\n\
+         #[allow(dead_code)] // only the single-core firmware reads it\n\
+         pub const DEMO: bool = {demo};\n\
          /// The integrator's skip switches.\n\
          pub const SKIP: micropt::Skip = micropt::Skip {{ {skip_fields}}};\n\
          /// The skip switches, for the summary line.\n\

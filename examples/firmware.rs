@@ -108,7 +108,7 @@ type Fb =
 
 /// Pixels of the whole-frame sample moments (none without the denoiser,
 /// none for the demo's passes, which stream).
-const MOMENT_PIXELS: usize = if config::DENOISE && config::PASSES == 0 {
+const MOMENT_PIXELS: usize = if config::DENOISE && !config::DEMO {
     WIDTH * HEIGHT
 } else {
     0
@@ -312,7 +312,7 @@ fn run(
     };
     mark(); // scene loaded, camera set up
 
-    let sum = if config::PASSES > 0 {
+    let sum = if config::DEMO {
         // the demo's passes, each streamed into the framebuffer (a mark
         // after each)
         render_passes(&renderer, dn, fb, &mut clock)?
@@ -350,6 +350,9 @@ fn run(
 /// render SCENE --spp SPP --passes K [--denoise] --size WxH --seed S -o
 /// out.rgb565`. (Not inlined: its stack is not live in the other paths.)
 #[inline(never)]
+// PASSES is a build setting, 0 (an empty range) in builds that never call
+// this
+#[allow(clippy::reversed_empty_ranges)]
 fn render_passes(
     renderer: &Renderer<'_>,
     dn: &mut DenoiseMemory,
@@ -453,12 +456,12 @@ fn summary(sum: &Summary, bytes: usize, stack: usize) {
         Budget::Paths(p) => write!(o, "paths {p}"),
         Budget::Spp(n) => write!(o, "spp {n}"),
     };
-    if config::PASSES > 0 {
+    if config::DEMO {
         let _ = write!(o, " {} demo passes", config::PASSES);
     }
     let _ = o.write_str(if config::DENOISE {
         " uniform denoised skip "
-    } else if config::PASSES > 0 {
+    } else if config::DEMO {
         " uniform raw skip "
     } else if config::ADAPTIVE {
         " adaptive skip "

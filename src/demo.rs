@@ -24,6 +24,11 @@
 //! new camera position starts again at the preview, a new exposure or the
 //! raw/denoised switch re-renders the pass it stopped.
 
+// without the parser there is no `Demo` (it parses its scenes); the
+// passes, the buttons and the orbit stay (the firmware's
+// MICROPT_FW_PASSES), and what only `Demo` uses is unused
+#![cfg_attr(not(feature = "parser"), allow(unused_imports, dead_code))]
+
 use crate::budget::Clock;
 use crate::camera::{CameraError, CameraSpec};
 use crate::denoise::{self, Column, DenoiseError, Moments};

@@ -51,7 +51,6 @@
 pub mod analysis;
 pub mod budget;
 pub mod camera;
-#[cfg(feature = "parser")]
 pub mod demo;
 pub mod denoise;
 pub mod error;
