@@ -16,7 +16,7 @@ const MAX_LINES: usize = 1000;
 
 /// The core's top-level modules, bottom up: each may import only those
 /// before it (the order of docs/architecture.md and the crate docs).
-const LAYERS: [&str; 18] = [
+const LAYERS: [&str; 19] = [
     "math",
     "sampler",
     "geometry",
@@ -35,6 +35,7 @@ const LAYERS: [&str; 18] = [
     "budget",
     "multicore",
     "denoise",
+    "demo",
 ];
 
 fn src_dir() -> PathBuf {
