@@ -2,7 +2,6 @@
 //! [`SceneBuilder::build`] runs the load-time analysis.
 
 use super::{Capacities, MAX_MATERIALS, MAX_PIXELS, MAX_PLANES, MAX_SIDE, MAX_SPHERES, Scene};
-use crate::analysis::{analyse_into, tree_pays};
 use crate::camera::CameraSpec;
 use crate::error::{SceneError, check_finite, check_non_negative};
 use crate::geometry::{Color, ObjectId, Plane, Sphere, Vec3};
@@ -197,18 +196,7 @@ impl Settings {
         scene.background = self.background;
         scene.camera = camera;
         scene.resolution = self.resolution;
-        analyse_into(
-            &mut scene.analysis,
-            &scene.spheres,
-            &scene.planes,
-            &scene.materials,
-            &scene.camera,
-        );
-        // (a firmware built without the tree's code keeps the empty tree of
-        // Scene::EMPTY)
-        if !cfg!(micropt_no_bvh) {
-            scene.set_bvh(tree_pays(scene.analysis.listed_view.len()));
-        }
+        scene.analyse();
         Ok(())
     }
 }

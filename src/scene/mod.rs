@@ -210,6 +210,14 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
     pub fn set_camera(&mut self, spec: CameraSpec) -> Result<(), crate::camera::CameraError> {
         spec.validate()?;
         self.camera = spec;
+        self.analyse();
+        Ok(())
+    }
+
+    /// The load-time analysis of the scene as it stands (objects and
+    /// camera), and the tree if it pays: what finishing a scene and moving
+    /// its camera both run.
+    pub(crate) fn analyse(&mut self) {
         crate::analysis::analyse_into(
             &mut self.analysis,
             &self.spheres,
@@ -217,10 +225,11 @@ impl<const S: usize, const P: usize, const M: usize> Scene<S, P, M> {
             &self.materials,
             &self.camera,
         );
+        // (a firmware built without the tree's code keeps the empty tree of
+        // Scene::EMPTY)
         if !cfg!(micropt_no_bvh) {
             self.set_bvh(crate::analysis::tree_pays(self.analysis.listed_view.len()));
         }
-        Ok(())
     }
 
     /// The default image size, if the scene sets one.
