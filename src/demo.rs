@@ -31,7 +31,7 @@
 
 use crate::budget::Clock;
 use crate::camera::{CameraError, CameraSpec};
-use crate::denoise::{self, Column, DenoiseError, Moments};
+use crate::denoise::{self, Column, DenoiseError, Moments, pixel_moments};
 use crate::film::{FromEncoded, tone_map};
 use crate::geometry::{Color, Vec3};
 use crate::math;
@@ -246,29 +246,9 @@ impl Pixels for OneCore {
     }
 }
 
-/// Pixel (x, y)'s `spp` samples summed into its moments, in sample order
-/// (the host's `--denoise` sums, bit for bit).
-pub fn pixel_moments(
-    renderer: &Renderer<'_>,
-    spp: u32,
-    x: u32,
-    y: u32,
-    stats: &mut Stats,
-) -> Moments {
-    let pixel = renderer.pixel(x, y);
-    let mut m = Moments::ZERO;
-    for k in 0..spp {
-        m.add(
-            renderer.sample_parts_in(&pixel, x, y, k, stats),
-            k < spp / 2,
-        );
-    }
-    m
-}
-
 /// One pass of `renderer`'s image at `spp` samples a pixel, raw (each
 /// pixel's mean) or denoised, row by row: `pixel(x, y)` gives each pixel's
-/// moments when asked (row by row, left to right; [`pixel_moments`], or a
+/// moments when asked (row by row, left to right; [`denoise::pixel_moments`], or a
 /// [`Pixels`] source), `emit(y, x, colour)` receives each output pixel
 /// (linear radiance), `go_on(y)` after each row says whether to go on.
 /// Returns whether every row was emitted, and the raw image's noise

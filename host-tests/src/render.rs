@@ -430,14 +430,7 @@ pub fn render_denoised<const S: usize, const P: usize, const M: usize>(
         let mut local = Stats::default();
         let mut row = vec![Moments::ZERO; w];
         for (x, m) in row.iter_mut().enumerate() {
-            let (x, y) = (x as u32, y as u32);
-            let pixel = renderer.pixel(x, y);
-            for k in 0..job.spp {
-                m.add(
-                    renderer.sample_parts_in(&pixel, x, y, k, &mut local),
-                    k < job.spp / 2,
-                );
-            }
+            *m = denoise::pixel_moments(&renderer, job.spp, x as u32, y as u32, &mut local);
         }
         *rows[y].lock().unwrap_or_else(|e| e.into_inner()) = row;
         stats

@@ -76,6 +76,28 @@ impl Moments {
     }
 }
 
+/// Pixel (x, y)'s `spp` samples summed into its moments, in sample order:
+/// the same sums wherever the pixel is rendered (the host's whole frame, a
+/// board's pixel as the denoiser asks for it, the demo's passes).
+#[inline]
+pub fn pixel_moments(
+    renderer: &Renderer<'_>,
+    spp: u32,
+    x: u32,
+    y: u32,
+    stats: &mut crate::stats::Stats,
+) -> Moments {
+    let pixel = renderer.pixel(x, y);
+    let mut m = Moments::ZERO;
+    for k in 0..spp {
+        m.add(
+            renderer.sample_parts_in(&pixel, x, y, k, stats),
+            k < spp / 2,
+        );
+    }
+    m
+}
+
 /// What the filter may do with a pixel, from its guide.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GuideKind {

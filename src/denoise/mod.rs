@@ -47,7 +47,7 @@ mod input;
 #[cfg(test)]
 mod tests;
 
-pub use input::{GUIDE_DEPTH, Guide, GuideKind, Moments, SHARP_ALPHA, guide};
+pub use input::{GUIDE_DEPTH, Guide, GuideKind, Moments, SHARP_ALPHA, guide, pixel_moments};
 
 use crate::geometry::{Color, Vec3};
 use crate::math;
