@@ -79,7 +79,6 @@ impl Moments {
 /// Pixel (x, y)'s `spp` samples summed into its moments, in sample order:
 /// the same sums wherever the pixel is rendered (the host's whole frame, a
 /// board's pixel as the denoiser asks for it, the demo's passes).
-#[inline]
 pub fn pixel_moments(
     renderer: &Renderer<'_>,
     spp: u32,
