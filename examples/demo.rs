@@ -297,16 +297,9 @@ mod window {
                 .map_err(|e| e.to_string())?;
             screen.show();
             if step == Step::Idle {
-                // the last pass is on the screen: wait for a key
+                // the last pass is on the screen: wait for a key (the next
+                // step asks for it)
                 std::thread::sleep(Duration::from_millis(20));
-            }
-            let next = {
-                let mut k = keys.borrow_mut();
-                k.pump();
-                k.queue.pop_front()
-            };
-            if let Some(c) = next {
-                demo.apply(c).map_err(|e| e.to_string())?;
             }
         }
     }

@@ -170,7 +170,9 @@ pub enum Step {
     Done(PassStats),
     /// A button was pressed during the pass (already applied).
     Interrupted(Command),
-    /// Every pass is done: the image stays; only a button changes it.
+    /// Every pass is done and no button was pressed: the image stays (a
+    /// press, asked for once in each such call, is applied and reported
+    /// as `Interrupted`).
     Idle,
 }
 
@@ -561,6 +563,11 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
         K: Clock,
     {
         if self.pass > LAST_PASS {
+            // the last pass stays on the panel until a button changes it
+            if let Some(c) = poll() {
+                self.apply(c)?;
+                return Ok(Step::Interrupted(c));
+            }
             return Ok(Step::Idle);
         }
         let (w, h) = (self.width, self.height);

@@ -225,16 +225,7 @@ where
                 info!("{=str}", text.as_str());
             }
             Ok(DemoStep::Interrupted(c)) => info!("button: {}", defmt::Debug2Format(&c)),
-            Ok(DemoStep::Idle) => {
-                led.set(GREEN);
-                if let Some(c) = poll() {
-                    info!("button: {}", defmt::Debug2Format(&c));
-                    if let Err(e) = demo.apply(c) {
-                        error!("demo: {}", defmt::Display2Format(&e));
-                        fail(led, step_of(&e))
-                    }
-                }
-            }
+            Ok(DemoStep::Idle) => led.set(GREEN),
             Err(e) => {
                 error!("demo: {}", defmt::Display2Format(&e));
                 fail(led, step_of(&e))

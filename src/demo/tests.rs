@@ -222,8 +222,11 @@ fn after_the_last_pass_the_image_stays() {
         assert_eq!(step, Ok(Step::Idle));
     }
     assert_eq!(panel.px, held);
-    // a press starts over
-    d.apply(Command::Orbit).unwrap();
+    // a press, asked for while idle, starts over
+    let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || {
+        Some(Command::Orbit)
+    });
+    assert_eq!(step, Ok(Step::Interrupted(Command::Orbit)));
     assert_eq!(d.pass(), 0);
 }
 

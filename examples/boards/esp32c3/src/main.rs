@@ -268,15 +268,7 @@ fn main() -> ! {
                     println!("[{s}.{ms:03}] {text}");
                 }
                 Ok(Step::Interrupted(c)) => println!("button: {c:?}"),
-                Ok(Step::Idle) => {
-                    if let Some(c) = poll() {
-                        println!("button: {c:?}");
-                        if let Err(e) = demo.apply(c) {
-                            println!("demo: {e}");
-                            fail("demo")
-                        }
-                    }
-                }
+                Ok(Step::Idle) => {}
                 Err(e) => {
                     println!("demo: {e}");
                     fail("demo")
