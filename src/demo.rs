@@ -161,6 +161,9 @@ pub struct PassStats {
     pub noise: f32,
     /// The paths traced.
     pub paths: u64,
+    /// The slowest pixel's time, by the demo's clock, when the demo
+    /// measures it ([`Demo::set_pixel_limit`]); 0 otherwise.
+    pub slowest_us: u64,
 }
 
 /// How a call of [`Demo::step`] ended.
@@ -432,7 +435,16 @@ pub struct Demo<'a, const S: usize, const P: usize, const M: usize> {
     settings: Settings,
     pass: u32,
     last: Option<PassStats>,
+    /// The longest a pixel may take ([`Demo::set_pixel_limit`]).
+    pixel_limit: Option<u64>,
+    /// The board's line above the status line ([`Demo::set_note`]).
+    note: heapless::String<NOTE_LEN>,
 }
+
+/// The longest note a board can put above the status line
+/// ([`Demo::set_note`]), in characters: the width of a 320-pixel panel in
+/// the 6 × 10 font is 53.
+pub const NOTE_LEN: usize = 48;
 
 #[cfg(feature = "parser")]
 impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
@@ -465,7 +477,50 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
             settings: Settings::START,
             pass: 0,
             last: None,
+            pixel_limit: None,
+            note: heapless::String::new(),
         })
+    }
+
+    /// Sets the longest a pixel may take, in the clock's microseconds (a
+    /// board's watchdog period, fed before each pixel): each pixel of a
+    /// pass is then timed, and the next pass, whose pixels take about
+    /// twice as long, is not started when twice its slowest pixel's
+    /// estimate would exceed `micros` (the image stays, as after
+    /// [`LAST_PASS`]). A changed scene, camera or setting starts again.
+    pub fn set_pixel_limit(&mut self, micros: u64) {
+        self.pixel_limit = Some(micros);
+    }
+
+    /// Whether the passes stop short of [`LAST_PASS`] because the next
+    /// one's pixels could outlast the pixel limit.
+    pub fn held(&self) -> bool {
+        match (self.pixel_limit, self.last) {
+            (Some(limit), Some(p)) => {
+                // the next pass doubles each pixel's samples; a factor 2
+                // more for the spread of a pixel's time between passes
+                p.pass + 1 == self.pass && p.slowest_us.saturating_mul(4) > limit
+            }
+            _ => false,
+        }
+    }
+
+    /// Sets the line drawn above the status line (when the status line is
+    /// on and the note is not empty): what the board adds, e.g. why it
+    /// last reset and its stack's high-water mark. Cut at [`NOTE_LEN`]
+    /// characters.
+    pub fn set_note(&mut self, text: &str) {
+        self.note.clear();
+        for c in text.chars() {
+            if self.note.push(c).is_err() {
+                break;
+            }
+        }
+    }
+
+    /// The note above the status line ([`Demo::set_note`]).
+    pub fn note(&self) -> &str {
+        &self.note
     }
 
     /// What the buttons have set.
@@ -562,7 +617,7 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
         D::Color: FromEncoded,
         K: Clock,
     {
-        if self.pass > LAST_PASS {
+        if self.pass > LAST_PASS || self.held() {
             // the last pass stays on the panel until a button changes it
             if let Some(c) = poll() {
                 self.apply(c)?;
@@ -604,6 +659,8 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
         // pixel's samples (the rest of its row is not rendered, and no row
         // is drawn after it)
         let pressed = core::cell::Cell::new(None);
+        let timed = self.pixel_limit.is_some();
+        let mut slowest = 0u64;
         let (done, noise) = render_pass(
             &renderer,
             spp,
@@ -616,7 +673,13 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
                 if pressed.get().is_some() {
                     return Moments::ZERO;
                 }
-                pixels.moments(&renderer, spp, x, y, &mut stats)
+                if !timed {
+                    return pixels.moments(&renderer, spp, x, y, &mut stats);
+                }
+                let t0 = clock.micros();
+                let m = pixels.moments(&renderer, spp, x, y, &mut stats);
+                slowest = slowest.max(clock.micros().saturating_sub(t0));
+                m
             },
             |y, x, c| {
                 if pressed.get().is_some() {
@@ -653,6 +716,7 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
             micros: clock.micros().saturating_sub(start),
             noise,
             paths: stats.paths,
+            slowest_us: slowest,
         };
         self.last = Some(pass);
         self.pass += 1;
@@ -749,20 +813,37 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
         let black = D::Color::from_encoded([0.0; 3], 0, 0);
         let white = D::Color::from_encoded([1.0; 3], 0, 0);
         let top = self.height.saturating_sub(STATUS_HEIGHT) as i32;
-        let band = Rectangle::new(Point::new(0, top), Size::new(self.width, STATUS_HEIGHT));
-        target
-            .fill_solid(&band, black)
-            .map_err(|_| DemoError::Draw)?;
-        Text::with_baseline(
-            text.as_str(),
-            Point::new(1, top),
-            MonoTextStyle::new(&FONT_6X10, white),
-            Baseline::Top,
-        )
-        .draw(&mut Clipped(target))
-        .map_err(|_| DemoError::Draw)?;
+        text_band(target, &text, top, self.width, (black, white))?;
+        if !self.note.is_empty() {
+            let above = top - STATUS_HEIGHT as i32;
+            text_band(target, &self.note, above, self.width, (black, white))?;
+        }
         Ok(())
     }
+}
+
+/// A band of [`STATUS_HEIGHT`] rows at `top`, `width` wide, filled with
+/// `colours.0`, `text` on it in `colours.1` (the 6 × 10 mono font).
+fn text_band<D: DrawTarget>(
+    target: &mut D,
+    text: &str,
+    top: i32,
+    width: u32,
+    (back, fore): (D::Color, D::Color),
+) -> Result<(), DemoError> {
+    let band = Rectangle::new(Point::new(0, top), Size::new(width, STATUS_HEIGHT));
+    target
+        .fill_solid(&band, back)
+        .map_err(|_| DemoError::Draw)?;
+    Text::with_baseline(
+        text,
+        Point::new(1, top),
+        MonoTextStyle::new(&FONT_6X10, fore),
+        Baseline::Top,
+    )
+    .draw(&mut Clipped(target))
+    .map_err(|_| DemoError::Draw)?;
+    Ok(())
 }
 
 /// Writes `v / 10^frac` with `frac` decimals, `v / 10^frac` cut at `int`

@@ -9,26 +9,26 @@ use embedded_graphics::pixelcolor::Rgb565;
 const W: usize = 16;
 const H: usize = 12;
 
-/// A panel in memory.
-struct Panel {
-    px: [[Rgb565; W]; H],
+/// A panel in memory, `R` rows.
+struct Panel<const R: usize = H> {
+    px: [[Rgb565; W]; R],
 }
 
-impl Panel {
+impl<const R: usize> Panel<R> {
     fn new() -> Self {
         Self {
-            px: [[Rgb565::new(0, 0, 0); W]; H],
+            px: [[Rgb565::new(0, 0, 0); W]; R],
         }
     }
 }
 
-impl OriginDimensions for Panel {
+impl<const R: usize> OriginDimensions for Panel<R> {
     fn size(&self) -> Size {
-        Size::new(W as u32, H as u32)
+        Size::new(W as u32, R as u32)
     }
 }
 
-impl DrawTarget for Panel {
+impl<const R: usize> DrawTarget for Panel<R> {
     type Color = Rgb565;
     type Error = Infallible;
 
@@ -126,7 +126,7 @@ fn each_pass_shows_the_denoised_render_at_its_budget() {
     let mut columns = [Column::EMPTY; W];
     let mut d = demo(&mut scene, &mut columns);
     d.apply(Command::Status).unwrap();
-    let (mut panel, mut line) = (Panel::new(), [Rgb565::new(0, 0, 0); W]);
+    let (mut panel, mut line) = (Panel::<H>::new(), [Rgb565::new(0, 0, 0); W]);
     let mut clock = Ticks { now: 0, step: 1 };
     for k in 0..3 {
         let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None);
@@ -156,7 +156,7 @@ fn a_press_stops_the_pass_and_a_new_scene_starts_again_at_the_preview() {
     let mut scene = TestScene::EMPTY;
     let mut columns = [Column::EMPTY; W];
     let mut d = demo(&mut scene, &mut columns);
-    let (mut panel, mut line) = (Panel::new(), [Rgb565::new(0, 0, 0); W]);
+    let (mut panel, mut line) = (Panel::<H>::new(), [Rgb565::new(0, 0, 0); W]);
     let mut clock = Ticks { now: 0, step: 1 };
     for _ in 0..3 {
         d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None)
@@ -210,7 +210,7 @@ fn after_the_last_pass_the_image_stays() {
     let mut d: Demo<'_, 8, 8, 8> =
         Demo::new(&ENTRIES, &mut scene, &mut columns, (2, 2), 1, 0).unwrap();
     d.apply(Command::Denoise).unwrap();
-    let (mut panel, mut line) = (Panel::new(), [Rgb565::new(0, 0, 0); 2]);
+    let (mut panel, mut line) = (Panel::<H>::new(), [Rgb565::new(0, 0, 0); 2]);
     let mut clock = Ticks { now: 0, step: 1 };
     for k in 0..=LAST_PASS {
         let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None);
@@ -235,7 +235,7 @@ fn the_status_line_gives_scene_budget_time_noise_and_mode() {
     let mut scene = TestScene::EMPTY;
     let mut columns = [Column::EMPTY; W];
     let mut d = demo(&mut scene, &mut columns);
-    let (mut panel, mut line) = (Panel::new(), [Rgb565::new(0, 0, 0); W]);
+    let (mut panel, mut line) = (Panel::<H>::new(), [Rgb565::new(0, 0, 0); W]);
     let mut text: heapless::String<64> = heapless::String::new();
     d.status(&mut text).unwrap();
     assert_eq!(text.as_str(), "spo preview dn");
@@ -334,7 +334,7 @@ fn the_first_pass_starts_with_a_preview_of_one_pixel_per_block() {
     let mut columns = [Column::EMPTY; W];
     let mut d = demo(&mut scene, &mut columns);
     d.apply(Command::Status).unwrap();
-    let (mut panel, mut line) = (Panel::new(), [Rgb565::new(0, 0, 0); W]);
+    let (mut panel, mut line) = (Panel::<H>::new(), [Rgb565::new(0, 0, 0); W]);
     let mut clock = Ticks { now: 0, step: 1 };
     // the press comes at the first poll after the preview's blocks: the
     // panel holds the whole preview
@@ -358,4 +358,83 @@ fn the_first_pass_starts_with_a_preview_of_one_pixel_per_block() {
     // an image, not a flat fill
     assert!(distinct > 0);
     assert_eq!(d.pass(), 0);
+}
+
+#[test]
+fn passes_stop_before_a_pixel_could_outlast_the_pixel_limit() {
+    let mut scene = TestScene::EMPTY;
+    let mut columns = [Column::EMPTY; 4];
+    let mut d: Demo<'_, 8, 8, 8> =
+        Demo::new(&ENTRIES, &mut scene, &mut columns, (4, 3), 1, 0).unwrap();
+    let (mut panel, mut line) = (Panel::<H>::new(), [Rgb565::new(0, 0, 0); 4]);
+    // every read of this clock is 1 ms later: each pixel is timed (two
+    // reads) at 1 ms, whatever its samples; the next pass is started only
+    // while 4 × 1 ms fits the limit
+    let mut clock = Ticks {
+        now: 0,
+        step: 1_000,
+    };
+    d.set_pixel_limit(3_999);
+    let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None);
+    assert!(
+        matches!(step, Ok(Step::Done(p)) if p.pass == 0 && p.slowest_us == 1_000),
+        "{step:?}"
+    );
+    assert!(d.held());
+    assert_eq!(
+        d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None),
+        Ok(Step::Idle)
+    );
+    // at 4 ms the next pass fits, and pass after pass is started
+    d.set_pixel_limit(4_000);
+    assert!(!d.held());
+    let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None);
+    assert!(matches!(step, Ok(Step::Done(p)) if p.pass == 1), "{step:?}");
+    // a new exposure re-renders the pass shown (not held), a press while
+    // held is applied
+    d.set_pixel_limit(10);
+    assert!(d.held());
+    let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || {
+        Some(Command::Exposure)
+    });
+    assert_eq!(step, Ok(Step::Interrupted(Command::Exposure)));
+    assert!(!d.held());
+    let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || None);
+    assert!(matches!(step, Ok(Step::Done(p)) if p.pass == 1), "{step:?}");
+    assert!(d.held());
+}
+
+#[test]
+fn the_boards_note_is_drawn_above_the_status_line_and_cut_to_fit() {
+    const TALL: usize = 2 * STATUS_HEIGHT as usize + 4;
+    let mut scene = TestScene::EMPTY;
+    let mut columns = [Column::EMPTY; W];
+    let mut d: Demo<'_, 8, 8, 8> = Demo::new(
+        &ENTRIES,
+        &mut scene,
+        &mut columns,
+        (W as u32, TALL as u32),
+        1,
+        0,
+    )
+    .unwrap();
+    let mut panel = Panel::<TALL>::new();
+    let white = Rgb565::new(31, 63, 31);
+    d.draw_status(&mut panel).unwrap();
+    let above = TALL - 2 * STATUS_HEIGHT as usize..TALL - STATUS_HEIGHT as usize;
+    assert!(
+        !panel.px[above.clone()]
+            .iter()
+            .flatten()
+            .any(|&c| c == white)
+    );
+    d.set_note("reset: watchdog");
+    assert_eq!(d.note(), "reset: watchdog");
+    d.draw_status(&mut panel).unwrap();
+    assert!(panel.px[above].iter().flatten().any(|&c| c == white));
+    let long = "x".repeat(NOTE_LEN + 5);
+    d.set_note(&long);
+    assert_eq!(d.note().len(), NOTE_LEN);
+    d.set_note("");
+    assert_eq!(d.note(), "");
 }
