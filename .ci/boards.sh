@@ -112,6 +112,11 @@ for board in $BOARDS; do
         cargo clippy --release --locked -- -D warnings
         # the progressive raw frame instead of the denoised one
         cargo clippy --release --locked --features raw -- -D warnings
+        # the Picos' other Display Pack (examples/board/display_pack.rs)
+        case "$name" in
+            pico) cargo clippy --release --locked --no-default-features --features pack-20 -- -D warnings ;;
+            pico2) cargo clippy --release --locked --no-default-features --features pack-114 -- -D warnings ;;
+        esac
         cargo build --release --locked
     )
     elf="$CARGO_TARGET_DIR/$target/release/micropt-$name"

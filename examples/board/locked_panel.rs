@@ -5,7 +5,8 @@
 //! section with a SIO hardware spinlock (and interrupts masked), so it
 //! excludes the other core.
 //!
-//! Shared by the Pico board crates in `examples/boards/` (`#[path]`).
+//! Shared by the board crates in `examples/boards/` (`#[path]`): the
+//! Picos' raw frame (both cores), the demo and the panic handler.
 
 use core::cell::RefCell;
 use critical_section::Mutex;

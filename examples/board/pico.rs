@@ -6,8 +6,19 @@
 //! RGB LED (GP6 red, GP7 green, GP8 blue, active low): blue while
 //! rendering, green when done, red blinking a failed step's number.
 //!
+//! And what keeps the demo alive on a desk: the watchdog, fed before each
+//! pixel ([`WATCHDOG_US`]; the demo does not start a pass whose pixels
+//! could outlast it); a panic's message on the panel, then a restart; a
+//! record of why the board restarted (panic, hard fault, stack overflow,
+//! watchdog) in the watchdog's scratch registers, shown on the line above
+//! the status line after the restart ([`last_reset`]); the stack painted
+//! at boot and its high-water mark on that line ([`paint_stack`],
+//! `stack_use`).
+//!
 //! Shared by the Pico board crates in `examples/boards/` (`#[path]`).
 
+use crate::hal;
+use core::fmt::Write;
 #[cfg(feature = "raw")]
 use defmt::warn;
 use defmt::{error, info};
@@ -178,13 +189,23 @@ impl micropt::Clock for Micros {
     }
 }
 
-/// The demo, forever, on core 0: pass after pass of `entries` into
-/// `target` (`size`, rendered with `seed`), `pressed()` read before each pixel (A, B, X, Y;
-/// `true`: pressed), debounced ([`Buttons`]). The LED: blue while a pass
-/// renders, green when the last pass is on the panel; a failure is logged
-/// and blinked (`step_of`: [`Step::Scene`] for a scene that does not
-/// parse, [`Step::Draw`] for the panel).
+/// The watchdog's period: the longest the demo may go without feeding it
+/// (the RP2040's and RP2350's watchdogs count at most 8.39 s).
 #[cfg(not(feature = "raw"))]
+pub const WATCHDOG_US: u32 = 8_000_000;
+
+/// The demo, forever, on core 0: pass after pass of `entries` into
+/// `target` (`size`, rendered with `seed`), `pressed()` read before each
+/// pixel (A, B, X, Y; `true`: pressed; it also feeds the watchdog),
+/// debounced ([`Buttons`]). No pass is started whose pixels could outlast
+/// [`WATCHDOG_US`] ([`Demo::set_pixel_limit`]). The line above the status
+/// line: `reset` (why the board last restarted, [`last_reset`]) and the
+/// stack's high-water mark. The LED: blue while a pass renders, green
+/// when the passes are done; a failure is logged and blinked (`step_of`:
+/// [`Step::Scene`] for a scene that does not parse, [`Step::Draw`] for the
+/// panel).
+#[cfg(not(feature = "raw"))]
+#[allow(clippy::too_many_arguments)]
 pub fn demo<D, P, const W: usize, const S: usize, const PL: usize, const M: usize>(
     entries: &'static [Entry],
     memory: Option<&'static mut DemoMemory<W, S, PL, M>>,
@@ -193,6 +214,7 @@ pub fn demo<D, P, const W: usize, const S: usize, const PL: usize, const M: usiz
     mut pressed: impl FnMut() -> [bool; 4],
     led: &mut Led<P>,
     now: fn() -> u64,
+    reset: &str,
 ) -> !
 where
     D: DrawTarget<Color = Rgb565>,
@@ -213,18 +235,30 @@ where
             fail(led, step_of(&e))
         }
     };
+    demo.set_pixel_limit(u64::from(WATCHDOG_US));
     let mut buttons: Buttons<4> = Buttons::new();
     let mut clock = Micros(now);
     let mut poll = move || buttons.update(now(), pressed()).and_then(command);
+    led.set(BLUE);
     loop {
-        led.set(BLUE);
+        let mut note: heapless::String<48> = heapless::String::new();
+        let (used, stack) = stack_use();
+        if !reset.is_empty() {
+            let _ = write!(note, "{reset}, ");
+        }
+        let _ = write!(note, "stack {used}/{stack} B");
+        demo.set_note(&note);
         match demo.step(&mut target, line, &mut OneCore, &mut clock, &mut poll) {
             Ok(DemoStep::Done(_)) => {
                 let mut text: heapless::String<64> = heapless::String::new();
                 let _ = demo.status(&mut text);
-                info!("{=str}", text.as_str());
+                info!("{=str} ({=str})", text.as_str(), note.as_str());
+                led.set(BLUE);
             }
-            Ok(DemoStep::Interrupted(c)) => info!("button: {}", defmt::Debug2Format(&c)),
+            Ok(DemoStep::Interrupted(c)) => {
+                info!("button: {}", defmt::Debug2Format(&c));
+                led.set(BLUE);
+            }
             Ok(DemoStep::Idle) => led.set(GREEN),
             Err(e) => {
                 error!("demo: {}", defmt::Display2Format(&e));
@@ -232,6 +266,146 @@ where
             }
         }
     }
+}
+
+/// What a restart record says ([`restart`], [`last_reset`]), in the
+/// watchdog's scratch register 0 beside [`RECORD`].
+#[derive(Clone, Copy)]
+pub enum Kind {
+    /// A panic: scratch 1 its line, scratch 2–3 its file's name (8 bytes).
+    Panic = 1,
+    /// A hard fault: scratch 1 the faulting instruction's address.
+    Fault = 2,
+    /// The stack limit was hit (the RP2350's MSPLIM): scratch 1 the pc.
+    StackOverflow = 3,
+}
+
+/// The tag of a restart record in scratch register 0 (`mpt` and the
+/// [`Kind`] in the low byte). The watchdog's scratch registers keep their
+/// value through a watchdog or software reset, not through power-on; the
+/// boot ROMs use 4–7 only (the RP2040 and RP2350 datasheets, "Watchdog").
+const RECORD: u32 = 0x6d70_7400;
+
+/// Writes a restart record into the watchdog's scratch registers 0–3.
+fn record(kind: Kind, value: u32, name: [u8; 8]) {
+    // SAFETY: the watchdog's scratch registers 0–3 are written by nothing
+    // else on this board (the HAL's `Watchdog` only on request, which
+    // these examples never make), and plain register writes cannot break
+    // the HAL's view of the watchdog's other registers.
+    let wd = unsafe { &*hal::pac::WATCHDOG::ptr() };
+    let word = |i: usize| u32::from_le_bytes([name[i], name[i + 1], name[i + 2], name[i + 3]]);
+    // SAFETY: any 32-bit value is valid in a scratch register.
+    unsafe {
+        wd.scratch1().write(|w| w.bits(value));
+        wd.scratch2().write(|w| w.bits(word(0)));
+        wd.scratch3().write(|w| w.bits(word(4)));
+        wd.scratch0().write(|w| w.bits(RECORD | kind as u32));
+    }
+}
+
+/// Records why the board restarts and restarts it (a system reset
+/// request; the watchdog's scratch registers survive it).
+pub fn restart(kind: Kind, value: u32) -> ! {
+    record(kind, value, [0; 8]);
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
+/// Why the board last restarted, from the watchdog's reason register and
+/// the record of [`restart`] or the panic handler (then cleared): empty
+/// after power-on or the reset button.
+pub fn last_reset(wd: &hal::pac::WATCHDOG) -> heapless::String<32> {
+    let mut out = heapless::String::new();
+    let tag = wd.scratch0().read().bits();
+    let value = wd.scratch1().read().bits();
+    let mut name = [0u8; 8];
+    name[..4].copy_from_slice(&wd.scratch2().read().bits().to_le_bytes());
+    name[4..].copy_from_slice(&wd.scratch3().read().bits().to_le_bytes());
+    // SAFETY: any value is valid in scratch register 0; clearing it means
+    // the record is shown once
+    unsafe { wd.scratch0().write(|w| w.bits(0)) };
+    let reason = wd.reason().read();
+    let name = core::str::from_utf8(&name)
+        .unwrap_or("?")
+        .trim_end_matches('\0');
+    let _ = match tag {
+        t if t == RECORD | Kind::Panic as u32 => write!(out, "reset: panic {name}:{value}"),
+        t if t == RECORD | Kind::Fault as u32 => write!(out, "reset: hard fault {value:08x}"),
+        t if t == RECORD | Kind::StackOverflow as u32 => write!(out, "reset: stack overflow"),
+        _ if reason.timer().bit_is_set() => write!(out, "reset: watchdog"),
+        _ if reason.force().bit_is_set() => write!(out, "reset: forced"),
+        _ => Ok(()),
+    };
+    out
+}
+
+/// The stack guard's bytes ([`stack_guard`]).
+pub const GUARD: usize = 32;
+
+/// Where the stack's guard starts: the first 32-byte boundary at or above
+/// the stack's lowest address (the M0+'s MPU guards 32-byte subregions;
+/// the M33's MSPLIM is set at its end). The stack ends at the guard's end.
+pub fn stack_guard() -> usize {
+    let (bottom, _) = crate::stack::bounds();
+    (bottom + GUARD - 1) & !(GUARD - 1)
+}
+
+/// Paints the stack above its guard ([`crate::stack::paint`]). Called
+/// first thing in `main`.
+#[inline(always)]
+pub fn paint_stack() {
+    crate::stack::paint(stack_guard() + GUARD);
+}
+
+/// The stack's high-water mark and its size above the guard, in bytes
+/// ([`crate::stack::high_water`]; not the guard: a read of it faults on
+/// the M0+).
+#[cfg(not(feature = "raw"))]
+pub fn stack_use() -> (usize, usize) {
+    crate::stack::high_water(stack_guard() + GUARD)
+}
+
+/// The name of a source file (after its last `/`), 8 bytes at most.
+fn short_name(file: &str) -> [u8; 8] {
+    let name = file.rsplit('/').next().unwrap_or(file);
+    let mut out = [0u8; 8];
+    for (o, b) in out.iter_mut().zip(name.bytes()) {
+        *o = b;
+    }
+    out
+}
+
+/// A panic: logged, recorded ([`last_reset`] says so after the
+/// restart), its message written on the panel (white on red, if the panel
+/// is set up and not in the middle of a drawing call), the LED red; then,
+/// after about 8 seconds to read it, the board restarts (the watchdog, if
+/// it runs, may restart it first).
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    cortex_m::interrupt::disable();
+    let (line, file) = info.location().map_or((0, ""), |l| (l.line(), l.file()));
+    record(Kind::Panic, line, short_name(file));
+    error!("{}", defmt::Display2Format(info));
+    // the LED red: GP6 low, GP7 and GP8 high (active low)
+    // SAFETY: single writes to the SIO's set and clear registers, which
+    // change only the LED's three outputs
+    let sio = unsafe { &*hal::pac::SIO::ptr() };
+    unsafe {
+        sio.gpio_out_set().write(|w| w.bits(1 << 7 | 1 << 8));
+        sio.gpio_out_clr().write(|w| w.bits(1 << 6));
+    }
+    let mut text: heapless::String<320> = heapless::String::new();
+    let _ = write!(text, "{info}");
+    critical_section::with(|cs| {
+        if let Ok(mut panel) = crate::display_pack::PANEL.borrow(cs).try_borrow_mut()
+            && let Some(panel) = panel.as_mut()
+        {
+            let _ = crate::panic_screen::write_text(panel, &text);
+        }
+    });
+    for _ in 0..10 {
+        cortex_m::asm::delay(125_000_000);
+    }
+    cortex_m::peripheral::SCB::sys_reset()
 }
 
 /// What core 1 is given to run for a raw frame ([`RawCore1::run`]).
@@ -398,4 +572,195 @@ where
     loop {
         cortex_m::asm::wfi();
     }
+}
+
+/// A Pico example's statics and `main`, written once for the RP2040 and
+/// the RP2350: what differs is given. `board`: the name the log starts
+/// with; `timer`: the 1 MHz timer's type, and how `pac` and `clocks` make
+/// it; `queue`: the raw frame's tile queue type; `memory`: the demo's
+/// static memory type ([`DemoMemory`]); `scale`: the demo's image is the
+/// panel's size divided by it, `target` wraps the panel to draw it at
+/// that scale; `guard`: sets core 0's stack guard from `core` (the Cortex-M
+/// peripherals). The caller has `SCENES` (the demo's), `LEFT_OUT` (the
+/// shipped ones it leaves out, and why), `SEED`, `BUDGET` (raw) and
+/// `XTAL_HZ`.
+macro_rules! pico_main {
+    (
+        board: $board:literal,
+        timer: $timer:ty = |$pac:ident, $clocks:ident| $make_timer:expr,
+        queue: $queue:ty,
+        memory: $memory:ty,
+        scale: $scale:expr,
+        target: |$t:ident| $wrap:expr,
+        guard: |$core:ident| $guard:expr $(,)?
+    ) => {
+        /// The panel's size (landscape).
+        const WIDTH: u32 = crate::display_pack::PACK.size.0;
+        /// The panel's size (landscape).
+        const HEIGHT: u32 = crate::display_pack::PACK.size.1;
+        /// The demo's image is the panel's size divided by this.
+        const SCALE: u32 = $scale;
+
+        /// The panel as both cores see it, each drawing its tiles (counted
+        /// for the progress log): the raw frame. (The demo draws through
+        /// `display_pack::PANEL`, on core 0 alone.)
+        #[cfg(feature = "raw")]
+        static RAW_PANEL: critical_section::Mutex<
+            core::cell::RefCell<Option<crate::progress::Progress<crate::display_pack::Panel>>>,
+        > = critical_section::Mutex::new(core::cell::RefCell::new(None));
+        /// The two cores' tile queue.
+        #[cfg(feature = "raw")]
+        static QUEUE: $queue = <$queue>::new(2);
+        /// The queue when core 1 did not start.
+        #[cfg(feature = "raw")]
+        static QUEUE_ALONE: $queue = <$queue>::new(1);
+        /// Set by core 1 if it could not draw to the panel.
+        #[cfg(feature = "raw")]
+        static CORE1_FAILED: core::sync::atomic::AtomicBool =
+            core::sync::atomic::AtomicBool::new(false);
+        /// Core 1's stack: 16 KiB, its tile accumulators static (the
+        /// render's stack depth measured in QEMU: docs/boards.md).
+        #[cfg(feature = "raw")]
+        static CORE1_STACK: crate::hal::multicore::Stack<4096> =
+            crate::hal::multicore::Stack::new();
+        /// The demo's memory: the denoiser's rings, a row of colours, the
+        /// scene.
+        #[cfg(not(feature = "raw"))]
+        static MEMORY: static_cell::ConstStaticCell<$memory> =
+            static_cell::ConstStaticCell::new(<$memory>::new());
+        /// The 1 MHz timer, for log timestamps (set once the clocks run).
+        static TIMER: critical_section::Mutex<core::cell::Cell<Option<$timer>>> =
+            critical_section::Mutex::new(core::cell::Cell::new(None));
+
+        /// Microseconds since the timer started (0 before).
+        fn now_us() -> u64 {
+            critical_section::with(|cs| TIMER.borrow(cs).get())
+                .map_or(0, |t| t.get_counter().ticks())
+        }
+
+        defmt::timestamp!("{=u64:us}", now_us());
+
+        #[crate::hal::entry]
+        fn main() -> ! {
+            use crate::hal::Clock as _;
+            use crate::pico::{Step, fail};
+            crate::pico::paint_stack();
+            defmt::info!(
+                "micropt on {=str} + {=str}: the demo, {=u32}x{=u32}",
+                $board,
+                crate::display_pack::PACK.name,
+                WIDTH / SCALE,
+                HEIGHT / SCALE
+            );
+            let (Some(mut $pac), Some(mut $core)) = (
+                crate::hal::pac::Peripherals::take(),
+                cortex_m::Peripherals::take(),
+            ) else {
+                // taken once, here: cannot fail
+                loop {
+                    cortex_m::asm::wfi();
+                }
+            };
+            let reset = crate::pico::last_reset(&$pac.WATCHDOG);
+            if !reset.is_empty() {
+                defmt::info!("{=str}", reset.as_str());
+            }
+            $guard;
+            let sio = crate::hal::Sio::new($pac.SIO);
+            let pins = crate::hal::gpio::Pins::new(
+                $pac.IO_BANK0,
+                $pac.PADS_BANK0,
+                sio.gpio_bank0,
+                &mut $pac.RESETS,
+            );
+            let (mut led, buttons, panel_pins) = crate::display_pack::split(pins);
+            let mut watchdog = crate::hal::Watchdog::new($pac.WATCHDOG);
+            let Ok($clocks) = crate::hal::clocks::init_clocks_and_plls(
+                XTAL_HZ,
+                $pac.XOSC,
+                $pac.CLOCKS,
+                $pac.PLL_SYS,
+                $pac.PLL_USB,
+                &mut $pac.RESETS,
+                &mut watchdog,
+            ) else {
+                fail(&mut led, Step::Clocks)
+            };
+            let mut timer: $timer = $make_timer;
+            critical_section::with(|cs| TIMER.borrow(cs).set(Some(timer)));
+            defmt::info!("clocks: {=u32} Hz", $clocks.system_clock.freq().to_Hz());
+            let panel = match panel_pins.panel(
+                $pac.SPI0,
+                &mut $pac.RESETS,
+                $clocks.peripheral_clock.freq(),
+                &mut timer,
+            ) {
+                Ok(p) => p,
+                Err(step) => fail(&mut led, step),
+            };
+            defmt::info!("panel ready (cleared, backlight on)");
+
+            #[cfg(not(feature = "raw"))]
+            {
+                use crate::hal::fugit::ExtU32;
+                for (name, why) in LEFT_OUT {
+                    defmt::info!("scene {=str} left out: {=str}", name, why);
+                }
+                critical_section::with(|cs| {
+                    crate::display_pack::PANEL.borrow_ref_mut(cs).replace(panel)
+                });
+                let $t = crate::locked_panel::LockedPanel {
+                    panel: &crate::display_pack::PANEL,
+                    size: embedded_graphics::geometry::Size::new(WIDTH, HEIGHT),
+                };
+                let target = $wrap;
+                watchdog.pause_on_debug(true);
+                watchdog.start(crate::pico::WATCHDOG_US.micros());
+                let mut buttons = buttons;
+                crate::pico::demo(
+                    SCENES,
+                    MEMORY.try_take(),
+                    ((WIDTH / SCALE, HEIGHT / SCALE), SEED),
+                    target,
+                    move || {
+                        watchdog.feed();
+                        buttons.pressed()
+                    },
+                    &mut led,
+                    now_us,
+                    &reset,
+                )
+            }
+
+            #[cfg(feature = "raw")]
+            {
+                let _ = buttons;
+                let renderer = crate::pico::setup(&mut led, WIDTH, HEIGHT, SEED);
+                let mut fifo = sio.fifo;
+                let mut mc =
+                    crate::hal::multicore::Multicore::new(&mut $pac.PSM, &mut $pac.PPB, &mut fifo);
+                let cores = mc.cores();
+                let tiles = micropt::film::tile_count(WIDTH, HEIGHT) as u32;
+                let counted = crate::progress::Progress::new(panel, tiles, crate::pico::report);
+                critical_section::with(|cs| RAW_PANEL.borrow_ref_mut(cs).replace(counted));
+                let target = || crate::locked_panel::LockedPanel {
+                    panel: &RAW_PANEL,
+                    size: embedded_graphics::geometry::Size::new(WIDTH, HEIGHT),
+                };
+                crate::pico::raw(
+                    renderer,
+                    BUDGET,
+                    (&QUEUE, &QUEUE_ALONE),
+                    &CORE1_FAILED,
+                    target,
+                    |part| match CORE1_STACK.take() {
+                        Some(stack) => cores[1].spawn(stack, move || part.run()).is_ok(),
+                        None => false,
+                    },
+                    &mut led,
+                    now_us,
+                )
+            }
+        }
+    };
 }

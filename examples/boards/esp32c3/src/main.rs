@@ -1,28 +1,32 @@
-//! micropt on an ESP32-C3 (one RISC-V RV32IMC core at 160 MHz, no FPU) with
-//! a 240×240 ST7789 SPI panel, rendering the Cornell box at 16 samples a
-//! pixel and denoising it on the board, row by row, straight to the panel
-//! through `mipidsi`.
+//! micropt's demo on an ESP32-C3 (one RISC-V RV32IMC core at 160 MHz, no
+//! FPU) with a 240×240 ST7789 SPI panel.
 //!
-//! The denoised frame (`examples/board/denoised.rs`): micropt's streaming
-//! denoiser asks for each pixel's samples a few rows ahead of the row it
-//! filters and gives each row as soon as it is chosen; the row goes to the
-//! panel at once. No frame of samples and no framebuffer: static RAM is the
-//! denoiser's rings (one `Column` of 796 bytes a pixel of a row: 191,040
-//! bytes) and one row of colours. The image is the host's `micropt render
-//! scenes/cornell.scene --size 240x240 --spp 16 --seed 0 --uniform
-//! --denoise`, bit for bit. With `--features raw` the example renders the
-//! raw frame instead, through the core's single-core budget executor
-//! (`micropt::budget::render_budget`: one 16×16 tile of accumulators, a
-//! preview of the whole image, then each tile refined with adaptive
-//! allocation; with `Budget::Spp(16)` the host's `micropt render
-//! scenes/cornell.scene --size 240x240 --spp 16 --seed 0`; a
-//! `Budget::Deadline(µs)` caps it instead). The C3 has no FPU: every f32
-//! add, subtract, multiply, divide, compare and int-to-float conversion is
-//! micropt's correctly rounded routine (`micropt::math::soft`, exported
-//! under the libgcc names by `examples/board/softfloat.rs`), not the chip's
-//! mask-ROM libgcc, which esp-hal's linker script would bind them to
-//! (`build.rs` says how that is kept off). So a frame is many times slower
-//! than on an M4F (docs/boards.md).
+//! The demo (`micropt::demo`, docs/demo.md): a block preview, then passes
+//! at 1, 2, 4, … samples a pixel, each streamed through the denoiser row
+//! by row to the panel; the BOOT button (GPIO9): a short press the next
+//! scene, a long one raw or denoised. No frame of samples and no
+//! framebuffer: static RAM is the denoiser's rings (one `Column` of 796
+//! bytes a pixel of a row: 191,040 bytes), a row of colours and the
+//! scene. Kept alive on a desk: the RTC watchdog (8 s) is fed before each
+//! pixel, and no pass is started whose pixels could outlast it; esp-hal's
+//! stack guard (a watchpoint on a word near the stack's end) turns an
+//! overflow into an exception and so a panic; a panic's message goes to
+//! the serial port and onto the panel (white on red), and after 8 s the
+//! chip restarts; the line above the status line says why it last
+//! restarted (watchdog, panic, brown-out) and the stack's high-water mark.
+//! With `--features raw` the example renders cornell's raw frame instead,
+//! through the core's single-core budget executor
+//! (`micropt::budget::render_budget`: a preview of the whole image, then
+//! each tile refined with adaptive allocation; with `Budget::Spp(16)` the
+//! host's `micropt render scenes/cornell.scene --size 240x240 --spp 16
+//! --seed 0`).
+//!
+//! The C3 has no FPU: every f32 add, subtract, multiply, divide, compare
+//! and int-to-float conversion is micropt's correctly rounded routine
+//! (`micropt::math::soft`, exported under the libgcc names by
+//! `examples/board/softfloat.rs`), not the chip's mask-ROM libgcc, which
+//! esp-hal's linker script would bind them to (`build.rs` says how that is
+//! kept off).
 //!
 //! Wiring (SPI2 on its IO MUX pins; any ESP32-C3 board, e.g. an
 //! ESP32-C3-DevKitM-1 or a "C3 SuperMini", and an ST7789 240×240 module):
@@ -41,15 +45,10 @@
 //! (Clear of the strapping pins GPIO2/8/9, the flash pins GPIO12–17 and
 //! USB's GPIO18/19.)
 //!
-//! What it shows: the panel is cleared to black before the backlight comes
-//! on, then the denoised rows appear from the top (the raw frame: the
-//! preview fills it in tile by tile, then the refined tiles replace it).
-//! Over USB (`espflash flash --monitor`, or any serial monitor
-//! on the board's USB port: esp-println writes to the C3's USB serial/JTAG
-//! or to UART0, whichever the board's USB connector is wired to) it prints
-//! each init step, each tenth of the rows (or the preview and each tenth of
-//! the refinement), and the frame time; a failed step says which. The backlight
-//! stays off if the panel could not be set up.
+//! Over USB (`espflash flash --monitor`, or any serial monitor on the
+//! board's USB port: esp-println writes to the C3's USB serial/JTAG or to
+//! UART0, whichever the board's USB connector is wired to) it prints each
+//! init step, each pass's status line and any panic.
 //!
 //! Build and flash: docs/boards.md.
 #![no_std]
@@ -60,16 +59,27 @@
 #[path = "../../../board/softfloat.rs"]
 mod softfloat;
 
+#[path = "../../../board/locked_panel.rs"]
+mod locked_panel;
+#[path = "../../../board/panic_screen.rs"]
+mod panic_screen;
 #[cfg(feature = "raw")]
 #[path = "../../../board/progress.rs"]
 mod progress;
+#[path = "../../../board/stack.rs"]
+mod stack;
 
+use core::cell::RefCell;
+use core::fmt::Write;
+use critical_section::Mutex;
 use embedded_graphics::draw_target::DrawTarget;
 use embedded_graphics::pixelcolor::{Rgb565, RgbColor};
-use embedded_hal_bus::spi::ExclusiveDevice;
+use embedded_hal_bus::spi::{ExclusiveDevice, NoDelay};
+use esp_hal::Blocking;
 use esp_hal::clock::CpuClock;
 use esp_hal::delay::Delay;
 use esp_hal::gpio::{Level, Output, OutputConfig};
+use esp_hal::rtc_cntl::SocResetReason;
 use esp_hal::spi::Mode;
 use esp_hal::spi::master::{Config, Spi};
 use esp_hal::time::{Instant, Rate};
@@ -79,12 +89,14 @@ use mipidsi::Builder;
 use mipidsi::interface::SpiInterface;
 use mipidsi::models::ST7789;
 use mipidsi::options::ColorInversion;
+use static_cell::ConstStaticCell;
 #[cfg(not(feature = "raw"))]
 use {
     esp_hal::gpio::{Input, InputConfig, Pull},
+    esp_hal::rtc_cntl::{Rtc, RwdtStage},
+    esp_hal::time::Duration,
     micropt::demo::{Buttons, Command, Demo, Entry, OneCore, Press, SCENES as SHIPPED, Step},
     micropt::denoise::Column,
-    static_cell::ConstStaticCell,
 };
 #[cfg(feature = "raw")]
 use {
@@ -149,6 +161,31 @@ static MEMORY: ConstStaticCell<DemoMemory> = ConstStaticCell::new(DemoMemory {
     scene: Scene::EMPTY,
 });
 
+/// The panel through `mipidsi`.
+type Panel = mipidsi::Display<
+    SpiInterface<
+        'static,
+        ExclusiveDevice<Spi<'static, Blocking>, Output<'static>, NoDelay>,
+        Output<'static>,
+    >,
+    ST7789,
+    Output<'static>,
+>;
+
+/// The panel, where the demo draws and a panic writes its message.
+static PANEL: Mutex<RefCell<Option<Panel>>> = Mutex::new(RefCell::new(None));
+/// The SPI interface's buffer.
+static BUFFER: ConstStaticCell<[u8; 512]> = ConstStaticCell::new([0; 512]);
+
+/// The watchdog's period: the longest the demo may go without feeding it.
+#[cfg(not(feature = "raw"))]
+const WATCHDOG_US: u64 = 8_000_000;
+/// The bytes above the stack's lowest address that esp-hal's stack guard
+/// word sits in (`ESP_HAL_CONFIG_STACK_GUARD_OFFSET`, 60 by default):
+/// never painted, since a write to the guard is the overflow it watches
+/// for.
+const GUARD: usize = 64;
+
 /// Microseconds since boot, from esp-hal's system timer.
 struct SysClock;
 
@@ -181,17 +218,59 @@ fn fail(step: &str) -> ! {
     halt()
 }
 
-/// Stops here on a panic, after printing it.
+/// A panic (a stack overflow included: esp-hal's stack guard raises
+/// one): printed, written on the panel (white on red, if the panel is set
+/// up and not in the middle of a drawing call), then after 8 s to read it
+/// the chip restarts (a software reset; the line above the status line
+/// says so after the restart).
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     println!("panic: {info}");
-    halt()
+    let mut text: heapless::String<320> = heapless::String::new();
+    let _ = write!(text, "{info}");
+    critical_section::with(|cs| {
+        if let Ok(mut panel) = PANEL.borrow(cs).try_borrow_mut()
+            && let Some(panel) = panel.as_mut()
+        {
+            let _ = panic_screen::write_text(panel, &text);
+        }
+    });
+    Delay::new().delay_millis(8_000);
+    esp_hal::system::software_reset()
+}
+
+/// Why the chip last restarted (empty after power-on): the ROM's reset
+/// reason. This firmware's only software reset is its panic handler's.
+fn last_reset() -> heapless::String<32> {
+    let mut out = heapless::String::new();
+    let _ = match esp_hal::system::reset_reason() {
+        None | Some(SocResetReason::ChipPowerOn) => Ok(()),
+        Some(SocResetReason::CoreSw | SocResetReason::Cpu0Sw) => out.write_str("reset: panic"),
+        Some(
+            SocResetReason::CoreMwdt0
+            | SocResetReason::CoreMwdt1
+            | SocResetReason::CoreRtcWdt
+            | SocResetReason::Cpu0Mwdt0
+            | SocResetReason::Cpu0Mwdt1
+            | SocResetReason::Cpu0RtcWdt
+            | SocResetReason::SysRtcWdt
+            | SocResetReason::SysSuperWdt,
+        ) => out.write_str("reset: watchdog"),
+        Some(SocResetReason::SysBrownOut) => out.write_str("reset: brown-out"),
+        Some(r) => write!(out, "reset: {r:?}"),
+    };
+    out
 }
 
 #[esp_hal::main]
 fn main() -> ! {
+    stack::paint(stack::bounds().0 + GUARD);
     let p = esp_hal::init(esp_hal::Config::default().with_cpu_clock(CpuClock::max()));
-    println!("micropt on ESP32-C3 + ST7789: cornell {WIDTH}x{HEIGHT}");
+    println!("micropt on ESP32-C3 + ST7789: the demo, {WIDTH}x{HEIGHT}");
+    let reset = last_reset();
+    if !reset.is_empty() {
+        println!("{reset}");
+    }
     // backlight off until the panel is cleared
     let mut backlight = Output::new(p.GPIO3, Level::Low, OutputConfig::default());
     // mode 3: CS-less 240×240 modules only answer in it, and it works with
@@ -209,11 +288,8 @@ fn main() -> ! {
     let dc = Output::new(p.GPIO4, Level::Low, OutputConfig::default());
     let rst = Output::new(p.GPIO5, Level::High, OutputConfig::default());
     let Ok(device) = ExclusiveDevice::new_no_delay(spi, cs);
-    // on the stack, as are the scene and the accumulators below: main never
-    // returns, and the C3's stack is most of its 400 KiB of SRAM
-    let mut buffer = [0u8; 512];
-    let di = SpiInterface::new(device, dc, &mut buffer);
-    let Ok(mut panel) = Builder::new(ST7789, di)
+    let di = SpiInterface::new(device, dc, BUFFER.take());
+    let Ok::<Panel, _>(mut panel) = Builder::new(ST7789, di)
         .display_size(WIDTH as u16, HEIGHT as u16)
         .invert_colors(ColorInversion::Inverted)
         .reset_pin(rst)
@@ -226,6 +302,12 @@ fn main() -> ! {
     }
     backlight.set_high();
     println!("panel ready (cleared, backlight on)");
+
+    critical_section::with(|cs| PANEL.borrow_ref_mut(cs).replace(panel));
+    let target = locked_panel::LockedPanel {
+        panel: &PANEL,
+        size: embedded_graphics::geometry::Size::new(WIDTH, HEIGHT),
+    };
 
     #[cfg(not(feature = "raw"))]
     {
@@ -250,8 +332,17 @@ fn main() -> ! {
                 fail("demo setup")
             }
         };
+        demo.set_pixel_limit(WATCHDOG_US);
+        let mut target = target;
+        // the RTC watchdog (esp_hal::init stops it): stage 0 resets the
+        // system after 8 s without a feed
+        let mut rtc = Rtc::new(p.RTC_TIMER);
+        rtc.rwdt
+            .set_timeout(RwdtStage::Stage0, Duration::from_micros(WATCHDOG_US));
+        rtc.rwdt.enable();
         let mut buttons: Buttons<1> = Buttons::new();
         let mut poll = || {
+            rtc.rwdt.feed();
             let now = Instant::now().duration_since_epoch().as_micros();
             match buttons.update(now, [boot.is_low()]) {
                 Some(Press::Short(_)) => Some(Command::NextScene),
@@ -260,12 +351,19 @@ fn main() -> ! {
             }
         };
         loop {
-            match demo.step(&mut panel, line, &mut OneCore, &mut SysClock, &mut poll) {
+            let mut note: heapless::String<48> = heapless::String::new();
+            let (used, size) = stack::high_water(stack::bounds().0 + GUARD);
+            if !reset.is_empty() {
+                let _ = write!(note, "{reset}, ");
+            }
+            let _ = write!(note, "stack {used}/{size} B");
+            demo.set_note(&note);
+            match demo.step(&mut target, line, &mut OneCore, &mut SysClock, &mut poll) {
                 Ok(Step::Done(_)) => {
                     let mut text: heapless::String<64> = heapless::String::new();
                     let _ = demo.status(&mut text);
                     let (s, ms) = stamp();
-                    println!("[{s}.{ms:03}] {text}");
+                    println!("[{s}.{ms:03}] {text} ({note})");
                 }
                 Ok(Step::Interrupted(c)) => println!("button: {c:?}"),
                 Ok(Step::Idle) => {}
@@ -290,7 +388,7 @@ fn main() -> ! {
         let renderer = renderer.seed(SEED);
         let mut acc = TileAccum::new();
         let tiles = tile_count(WIDTH, HEIGHT) as u32;
-        let mut target = Progress::new(panel, tiles, report);
+        let mut target = Progress::new(target, tiles, report);
         println!("rendering {tiles} tiles: preview, then refinement");
         // preview first, then refined tiles, each straight to the panel
         match render_budget(

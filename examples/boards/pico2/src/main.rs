@@ -1,99 +1,51 @@
-//! micropt on a Raspberry Pi Pico 2 (RP2350, two Cortex-M33 cores with
-//! FPUs at 150 MHz) with a Pimoroni Pico Display Pack 2.0 (ST7789, 2.0",
-//! 320×240), rendering the Cornell box at 16 samples a pixel on both cores
-//! and denoising it on the board, row by row, straight to the panel
-//! through `mipidsi`.
+//! micropt's demo on a Raspberry Pi Pico 2 (RP2350, two Cortex-M33 cores
+//! with FPUs at 150 MHz) with a Pimoroni Pico Display Pack: the 2.0"
+//! 320×240 pack (feature `pack-20`, the default) or the 1.14" 240×135
+//! pack (`--no-default-features --features pack-114`).
 //!
-//! The denoised frame (`examples/board/denoised.rs`): core 1 renders the
-//! odd pixels of each row and hands them to core 0 (`mailbox.rs`); core 0
-//! renders the even ones and runs micropt's streaming denoiser, which asks
-//! for each pixel a few rows ahead of the row it filters and gives each
-//! row as soon as it is chosen; the row goes to the panel at once. No frame
-//! of samples and no framebuffer: static RAM is the denoiser's rings (one
-//! `Column` of 796 bytes a pixel of a row: 254,720 bytes), a row of moments
-//! each side and one of colours. The image is the host's `micropt render
-//! scenes/cornell.scene --size 320x240 --spp 16 --seed 0 --uniform
-//! --denoise`, bit for bit. With `--features raw` the example renders the
-//! raw frame instead, through the core's shared tile executor
-//! (`micropt::multicore::render_shared`): a preview of every tile, then
-//! every tile refined with adaptive allocation, each core taking the next
-//! tile from one queue of atomic counters; that image is `micropt render
-//! scenes/cornell.scene --size 320x240 --spp 16 --seed 0`. The FPUs do the
-//! f32 arithmetic (no float routine is linked for it).
+//! The demo (`micropt::demo`, docs/demo.md) on core 0: a block preview,
+//! then passes at 1, 2, 4, … samples a pixel, each streamed through the
+//! denoiser row by row to the panel; the buttons A (next scene), B
+//! (exposure), X (orbit the camera), Y (raw or denoised; held: the status
+//! line). Board code: `examples/board/display_pack.rs` (pins, SPI,
+//! buttons, LED), `examples/board/pico.rs` (the demo loop, the watchdog,
+//! the panic and restart records, the stack's high-water mark). Here:
+//! the clocks, the RP2350's image definition, the MSPLIM stack limit and
+//! the hard fault handler. With `--features raw` the example renders
+//! cornell's raw frame on both cores instead, through the core's shared
+//! tile executor (each core taking the next tile from one queue of atomic
+//! counters); that image is `micropt render scenes/cornell.scene --size
+//! 320x240 --spp 16 --seed 0`. The FPUs do the f32 arithmetic (no float
+//! routine is linked for it).
 //!
-//! What it shows: the panel is cleared to black before the backlight comes
-//! on, then the denoised rows appear from the top (the raw frame: the
-//! preview fills it in tile by tile, then the refined tiles replace it).
-//! The pack's RGB LED: blue while rendering, green when the frame is done,
-//! red blinking N times (then a pause, again) when init step N failed
-//! ([`Step`]). Over a debug probe (`cargo run --release`: `probe-rs run`),
-//! defmt prints each step, each tenth of the rows (or of the refinement),
-//! and the frame time.
-//!
-//! Wiring: none, the Display Pack 2.0 plugs onto the Pico 2's headers. It uses
-//! (Pimoroni's pinout):
-//!
-//! | panel     | RP2350 |
-//! | --------- | ------ |
-//! | SCK       | GP18 (SPI0 SCK) |
-//! | MOSI      | GP19 (SPI0 TX)  |
-//! | CS        | GP17   |
-//! | DC        | GP16   |
-//! | backlight | GP20 (high after the panel is cleared) |
-//! | RGB LED   | GP6 red, GP7 green, GP8 blue (active low) |
-//! | reset     | not wired (the panel resets at power-on) |
-//!
-//! Build and flash: docs/boards.md.
+//! Wiring: none, the Display Pack plugs onto the Pico 2's headers
+//! (`examples/board/display_pack.rs` has the pins). Build and flash:
+//! docs/boards.md.
 #![no_std]
 #![no_main]
 
-#[cfg(feature = "raw")]
+#[path = "../../../board/display_pack.rs"]
+mod display_pack;
 #[path = "../../../board/locked_panel.rs"]
 mod locked_panel;
+#[path = "../../../board/panic_screen.rs"]
+mod panic_screen;
+#[macro_use]
 #[path = "../../../board/pico.rs"]
 mod pico;
 #[cfg(feature = "raw")]
 #[path = "../../../board/progress.rs"]
 mod progress;
+#[path = "../../../board/stack.rs"]
+mod stack;
 
 use defmt_rtt as _;
-use panic_probe as _;
 
-use core::cell::Cell;
-use critical_section::Mutex;
-use defmt::info;
-use embedded_graphics::draw_target::DrawTarget;
-use embedded_graphics::pixelcolor::{Rgb565, RgbColor};
-use embedded_hal::digital::OutputPin;
-use embedded_hal_bus::spi::{ExclusiveDevice, NoDelay};
-use hal::Clock as _;
-use hal::fugit::RateExtU32;
-use hal::gpio::bank0::{Gpio16, Gpio17, Gpio18, Gpio19};
-use hal::gpio::{FunctionSioOutput, FunctionSpi, Pin, PinState, PullDown};
-use mipidsi::interface::SpiInterface;
-use mipidsi::models::ST7789;
-use mipidsi::options::{ColorInversion, Orientation, Rotation};
-use mipidsi::{Builder, NoResetPin};
-use pico::{Led, Step, fail};
-use rp235x_hal as hal;
 #[cfg(feature = "raw")]
-use {
-    core::cell::RefCell,
-    core::sync::atomic::AtomicBool,
-    embedded_graphics::geometry::Size,
-    hal::multicore::{Multicore, Stack},
-    locked_panel::LockedPanel,
-    micropt::Budget,
-    micropt::film::tile_count,
-    micropt::multicore::AtomicQueue,
-    progress::Progress,
-};
+use micropt::Budget;
 #[cfg(not(feature = "raw"))]
-use {
-    embedded_hal::digital::InputPin,
-    micropt::demo::{Entry, SCENES as SHIPPED},
-    static_cell::ConstStaticCell,
-};
+use micropt::demo::{Entry, SCENES as SHIPPED};
+use rp235x_hal as hal;
 
 /// Tells the boot ROM that this is an Arm executable (in the first 4 KiB
 /// of flash: memory.x).
@@ -103,10 +55,6 @@ pub static IMAGE_DEF: hal::block::ImageDef = hal::block::ImageDef::secure_exe();
 
 /// The Pico 2's crystal.
 const XTAL_HZ: u32 = 12_000_000;
-/// Panel size (landscape).
-const WIDTH: u32 = 320;
-/// Panel size (landscape).
-const HEIGHT: u32 = 240;
 /// The raw frame's budget: 16 samples per pixel on average. A sample
 /// budget (`Spp` or `Paths`): the two-core executor refuses a deadline.
 #[cfg(feature = "raw")]
@@ -114,204 +62,51 @@ const BUDGET: Budget = Budget::Spp(16);
 /// Render seed.
 const SEED: u64 = 0;
 
-type Spi0 = hal::spi::Spi<
-    hal::spi::Enabled,
-    hal::pac::SPI0,
-    (
-        Pin<Gpio19, FunctionSpi, PullDown>,
-        Pin<Gpio18, FunctionSpi, PullDown>,
-    ),
-    8,
->;
-type Cs = Pin<Gpio17, FunctionSioOutput, PullDown>;
-type Dc = Pin<Gpio16, FunctionSioOutput, PullDown>;
-type Panel = mipidsi::Display<
-    SpiInterface<'static, ExclusiveDevice<Spi0, Cs, NoDelay>, Dc>,
-    ST7789,
-    NoResetPin,
->;
-
-/// The panel as both cores see it, each drawing its tiles (counted for
-/// the progress log): the raw frame. (The denoised frame is drawn by core
-/// 0 alone.)
-#[cfg(feature = "raw")]
-static PANEL: Mutex<RefCell<Option<Progress<Panel>>>> = Mutex::new(RefCell::new(None));
-/// The two cores' tile queue.
-#[cfg(feature = "raw")]
-static QUEUE: AtomicQueue = AtomicQueue::new(2);
-/// The queue when core 1 did not start.
-#[cfg(feature = "raw")]
-static QUEUE_ALONE: AtomicQueue = AtomicQueue::new(1);
-/// Set by core 1 if it could not draw to the panel.
-#[cfg(feature = "raw")]
-static CORE1_FAILED: AtomicBool = AtomicBool::new(false);
-
-/// The demo's scenes (button A steps through them): the first 5 shipped.
+/// The demo's scenes (button A steps through them): every shipped one.
 #[cfg(not(feature = "raw"))]
-const SCENES: &[Entry] = match SHIPPED.split_at_checked(5) {
-    Some((first, _)) => first,
-    None => &SHIPPED,
-};
-/// The shipped scenes left out, and why (logged at boot).
-/// None.
+const SCENES: &[Entry] = &SHIPPED;
+/// The shipped scenes left out: none.
 #[cfg(not(feature = "raw"))]
 const LEFT_OUT: [(&str, &str); 0] = [];
-/// The demo's memory: the denoiser's rings, a row of colours, the scene
-/// (at most 512 spheres, 8 planes, 32 materials).
-#[cfg(not(feature = "raw"))]
-static MEMORY: ConstStaticCell<pico::DemoMemory<{ WIDTH as usize }, 512, 8, 32>> =
-    ConstStaticCell::new(pico::DemoMemory::new());
-#[cfg(feature = "raw")]
-/// Core 1's stack: 16 KiB, its tile accumulators static (the render's
-/// stack depth measured in QEMU: docs/boards.md).
-static CORE1_STACK: Stack<4096> = Stack::new();
-/// The 1 MHz timer, for log timestamps (set once the clocks run).
-static TIMER: Mutex<Cell<Option<Timer0>>> = Mutex::new(Cell::new(None));
 
-type Timer0 = hal::Timer<hal::timer::CopyableTimer0>;
-
-/// Microseconds since the timer started (0 before).
-fn now_us() -> u64 {
-    critical_section::with(|cs| TIMER.borrow(cs).get()).map_or(0, |t| t.get_counter().ticks())
+/// Core 0's stack limit: MSPLIM at the end of the stack's guard
+/// ([`pico::stack_guard`]), so a push below it raises a stack-overflow
+/// fault (escalated to a hard fault), and CCR.STKOFHFNMIGN lets the hard
+/// fault handler run below the limit, within the guard's 32 bytes (as the
+/// HAL limits core 1's stack).
+fn guard_stack(scb: &mut cortex_m::peripheral::SCB) {
+    let limit = (pico::stack_guard() + pico::GUARD) as u32;
+    // SAFETY: the limit is below every live stack frame (the stack has
+    // barely begun: main's first lines) and above all static data
+    unsafe {
+        cortex_m::register::msplim::write(limit);
+        scb.ccr.modify(|v| v | 1 << 10);
+    }
 }
 
-defmt::timestamp!("{=u64:us}", now_us());
-
-#[hal::entry]
-fn main() -> ! {
-    info!(
-        "micropt on Raspberry Pi Pico 2 + Pico Display Pack 2.0: cornell {=u32}x{=u32}",
-        WIDTH, HEIGHT
-    );
-    let Some(mut pac) = hal::pac::Peripherals::take() else {
-        // taken once, here: cannot fail
-        loop {
-            cortex_m::asm::wfi();
-        }
+/// A hard fault: a stack overflow (CFSR's STKOF) or another fault,
+/// recorded, then the board restarts.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    // SAFETY: a read of the fault status register
+    let cfsr = unsafe { (*cortex_m::peripheral::SCB::PTR).cfsr.read() };
+    let kind = if cfsr & 1 << 20 != 0 {
+        pico::Kind::StackOverflow
+    } else {
+        pico::Kind::Fault
     };
-    let sio = hal::Sio::new(pac.SIO);
-    let pins = hal::gpio::Pins::new(
-        pac.IO_BANK0,
-        pac.PADS_BANK0,
-        sio.gpio_bank0,
-        &mut pac.RESETS,
-    );
-    // LED off, backlight off until the panel is cleared
-    let mut led = Led([
-        pins.gpio6
-            .into_push_pull_output_in_state(PinState::High)
-            .into_dyn_pin(),
-        pins.gpio7
-            .into_push_pull_output_in_state(PinState::High)
-            .into_dyn_pin(),
-        pins.gpio8
-            .into_push_pull_output_in_state(PinState::High)
-            .into_dyn_pin(),
-    ]);
-    let mut backlight = pins.gpio20.into_push_pull_output_in_state(PinState::Low);
+    pico::restart(kind, frame.pc())
+}
 
-    let mut watchdog = hal::Watchdog::new(pac.WATCHDOG);
-    // 150 MHz system clock from the 12 MHz crystal
-    let Ok(clocks) = hal::clocks::init_clocks_and_plls(
-        XTAL_HZ,
-        pac.XOSC,
-        pac.CLOCKS,
-        pac.PLL_SYS,
-        pac.PLL_USB,
-        &mut pac.RESETS,
-        &mut watchdog,
-    ) else {
-        fail(&mut led, Step::Clocks)
-    };
-    let mut timer = hal::Timer::new_timer0(pac.TIMER0, &mut pac.RESETS, &clocks);
-    critical_section::with(|cs| TIMER.borrow(cs).set(Some(timer)));
-    info!("clocks: {=u32} Hz", clocks.system_clock.freq().to_Hz());
-
-    let mosi = pins.gpio19.into_function::<FunctionSpi>();
-    let sck = pins.gpio18.into_function::<FunctionSpi>();
-    // at most 62.5 MHz, the ST7789's write clock: the divider of the 150 MHz
-    // peripheral clock gives 37.5 MHz (150 / 4; the next step is 75 MHz)
-    let spi: Spi0 = hal::spi::Spi::<_, _, _, 8>::new(pac.SPI0, (mosi, sck)).init(
-        &mut pac.RESETS,
-        clocks.peripheral_clock.freq(),
-        62_500_000u32.Hz(),
-        embedded_hal::spi::MODE_0,
-    );
-    let cs: Cs = pins.gpio17.into_push_pull_output();
-    let dc: Dc = pins.gpio16.into_push_pull_output();
-    let Ok(device) = ExclusiveDevice::new_no_delay(spi, cs);
-    let Some(buffer) = cortex_m::singleton!(: [u8; 512] = [0; 512]) else {
-        fail(&mut led, Step::Memory)
-    };
-    let di = SpiInterface::new(device, dc, buffer);
-    // the panel is 240×320 portrait; turned a quarter for 320×240
-    let Ok::<Panel, _>(mut panel) = Builder::new(ST7789, di)
-        .display_size(HEIGHT as u16, WIDTH as u16)
-        .orientation(Orientation::new().rotate(Rotation::Deg90))
-        .invert_colors(ColorInversion::Inverted)
-        .init(&mut timer)
-    else {
-        fail(&mut led, Step::Panel)
-    };
-    if panel.clear(Rgb565::BLACK).is_err() {
-        fail(&mut led, Step::Clear)
-    }
-    let _ = backlight.set_high();
-    info!("panel ready (cleared, backlight on)");
-    #[cfg(not(feature = "raw"))]
-    {
-        // the Display Pack's buttons A, B, X, Y: to ground when pressed
-        let mut buttons = [
-            pins.gpio12.into_pull_up_input().into_dyn_pin(),
-            pins.gpio13.into_pull_up_input().into_dyn_pin(),
-            pins.gpio14.into_pull_up_input().into_dyn_pin(),
-            pins.gpio15.into_pull_up_input().into_dyn_pin(),
-        ];
-        for (name, why) in LEFT_OUT {
-            info!("scene {=str} left out: {=str}", name, why);
-        }
-        pico::demo(
-            SCENES,
-            MEMORY.try_take(),
-            ((WIDTH, HEIGHT), SEED),
-            panel,
-            move || {
-                let mut down = [false; 4];
-                for (d, pin) in down.iter_mut().zip(buttons.iter_mut()) {
-                    *d = pin.is_low().unwrap_or(false);
-                }
-                down
-            },
-            &mut led,
-            now_us,
-        )
-    }
-
-    #[cfg(feature = "raw")]
-    {
-        let renderer = pico::setup(&mut led, WIDTH, HEIGHT, SEED);
-        let mut fifo = sio.fifo;
-        let mut mc = Multicore::new(&mut pac.PSM, &mut pac.PPB, &mut fifo);
-        let cores = mc.cores();
-        let tiles = tile_count(WIDTH, HEIGHT) as u32;
-        let counted = Progress::new(panel, tiles, pico::report);
-        critical_section::with(|cs| PANEL.borrow_ref_mut(cs).replace(counted));
-        let target = || LockedPanel {
-            panel: &PANEL,
-            size: Size::new(WIDTH, HEIGHT),
-        };
-        pico::raw(
-            renderer,
-            BUDGET,
-            (&QUEUE, &QUEUE_ALONE),
-            &CORE1_FAILED,
-            target,
-            |part| match CORE1_STACK.take() {
-                Some(stack) => cores[1].spawn(stack, move || part.run()).is_ok(),
-                None => false,
-            },
-            &mut led,
-            now_us,
-        )
-    }
+// 150 MHz from the 12 MHz crystal; SPI0 at 37.5 MHz, a quarter of the
+// peripheral clock (the next step, 75 MHz, is above the ST7789's 62.5 MHz)
+pico_main! {
+    board: "Raspberry Pi Pico 2",
+    timer: hal::Timer<hal::timer::CopyableTimer0> =
+        |pac, clocks| hal::Timer::new_timer0(pac.TIMER0, &mut pac.RESETS, &clocks),
+    queue: micropt::multicore::AtomicQueue,
+    memory: pico::DemoMemory<{ WIDTH as usize }, 512, 8, 32>,
+    scale: 1,
+    target: |panel| panel,
+    guard: |core| guard_stack(&mut core.SCB),
 }
