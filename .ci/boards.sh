@@ -72,6 +72,37 @@ boot_image() {
         readelf -SW "$2" | grep -E ' \.start_block ' # the section holding it
         python3 .ci/uf2.py imagedef "$2"
         python3 .ci/uf2.py convert "$2" "$out.uf2" rp2350-arm-s
+        # cortex-m-rt copies __sdata..__edata from __sidata as one block:
+        # every section loaded into RAM (.data, memory.x's .ram_text) must
+        # sit in flash at the same offset from __sidata as in RAM from
+        # __sdata (a section placed between them in flash breaks the copy)
+        python3 - "$2" <<'PY'
+import subprocess, sys
+elf = sys.argv[1]
+syms = {}
+for line in subprocess.run(["readelf", "-sW", elf], capture_output=True, text=True, check=True).stdout.splitlines():
+    f = line.split()
+    if len(f) == 8 and f[7] in ("__sdata", "__edata", "__sidata"):
+        syms[f[7]] = int(f[1], 16)
+bad = []
+loaded = 0
+for line in subprocess.run(["readelf", "-lW", elf], capture_output=True, text=True, check=True).stdout.splitlines():
+    f = line.split()
+    if not f or f[0] != "LOAD":
+        continue
+    vaddr, paddr, filesz = int(f[2], 16), int(f[3], 16), int(f[4], 16)
+    if filesz and vaddr != paddr:
+        loaded += filesz
+        if not syms["__sdata"] <= vaddr < syms["__edata"]:
+            bad.append(f"segment at {vaddr:#x} is copied to RAM outside __sdata..__edata")
+        elif paddr - syms["__sidata"] != vaddr - syms["__sdata"]:
+            bad.append(f"segment at {vaddr:#x} loads from {paddr:#x}, not __sidata + {vaddr - syms['__sdata']:#x}")
+if loaded != syms["__edata"] - syms["__sdata"]:
+    bad.append(f"{loaded} bytes loaded into RAM, but the copy is {syms['__edata'] - syms['__sdata']}")
+if bad:
+    sys.exit("error: " + "; ".join(bad))
+print(f"RAM sections: {loaded} bytes, one block from {syms['__sidata']:#x} (the reset handler's copy)")
+PY
         ;;
     esp32c3)
         rm -f "$out.bin"

@@ -250,13 +250,16 @@ where
         demo.set_note(&note);
         match demo.step(&mut target, line, &mut OneCore, &mut clock, &mut poll) {
             Ok(DemoStep::Done(_)) => {
-                let mut text: heapless::String<64> = heapless::String::new();
+                let mut text: heapless::String<120> = heapless::String::new();
                 let _ = demo.status(&mut text);
-                info!("{=str} ({=str})", text.as_str(), note.as_str());
+                let _ = write!(text, " ({note})");
+                log(&text);
                 led.set(BLUE);
             }
             Ok(DemoStep::Interrupted(c)) => {
-                info!("button: {}", defmt::Debug2Format(&c));
+                let mut text: heapless::String<32> = heapless::String::new();
+                let _ = write!(text, "button: {c:?}");
+                log(&text);
                 led.set(BLUE);
             }
             Ok(DemoStep::Idle) => led.set(GREEN),
@@ -266,6 +269,12 @@ where
             }
         }
     }
+}
+
+/// A log line: over defmt (RTT, to a debug probe) and over USB serial.
+pub fn log(line: &str) {
+    info!("{=str}", line);
+    crate::usb_serial::print(line);
 }
 
 /// What a restart record says ([`restart`], [`last_reset`]), in the
@@ -376,9 +385,10 @@ fn short_name(file: &str) -> [u8; 8] {
 
 /// A panic: logged, recorded ([`last_reset`] says so after the
 /// restart), its message written on the panel (white on red, if the panel
-/// is set up and not in the middle of a drawing call), the LED red; then,
-/// after about 8 seconds to read it, the board restarts (the watchdog, if
-/// it runs, may restart it first).
+/// is set up and not in the middle of a drawing call) and sent over USB
+/// serial, the LED red; then, after about 8 seconds to read it, the board
+/// restarts (the watchdog, if it runs, restarts it at about the same
+/// time).
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     cortex_m::interrupt::disable();
@@ -402,9 +412,9 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
             let _ = crate::panic_screen::write_text(panel, &text);
         }
     });
-    for _ in 0..10 {
-        cortex_m::asm::delay(125_000_000);
-    }
+    // the message over USB serial too, the device polled here (interrupts
+    // are off) while the panel shows it
+    crate::usb_serial::print_polling(&text, 8_000, crate::SYS_HZ);
     cortex_m::peripheral::SCB::sys_reset()
 }
 
@@ -581,13 +591,16 @@ where
 /// static memory type ([`DemoMemory`]); `scale`: the demo's image is the
 /// panel's size divided by it, `target` wraps the panel to draw it at
 /// that scale; `guard`: sets core 0's stack guard from `core` (the Cortex-M
-/// peripherals). The caller has `SCENES` (the demo's), `LEFT_OUT` (the
+/// peripherals); `usb`: the PAC's names of the USB controller's registers
+/// and its RAM; `clock_hz`: the system clock. The caller has `SCENES` (the demo's), `LEFT_OUT` (the
 /// shipped ones it leaves out, and why), `SEED`, `BUDGET` (raw) and
 /// `XTAL_HZ`.
 macro_rules! pico_main {
     (
         board: $board:literal,
         timer: $timer:ty = |$pac:ident, $clocks:ident| $make_timer:expr,
+        usb: ($usb_regs:ident, $usb_dpram:ident),
+        clock_hz: $hz:expr,
         queue: $queue:ty,
         memory: $memory:ty,
         scale: $scale:expr,
@@ -600,6 +613,8 @@ macro_rules! pico_main {
         const HEIGHT: u32 = crate::display_pack::PACK.size.1;
         /// The demo's image is the panel's size divided by this.
         const SCALE: u32 = $scale;
+        /// The system clock (the panic handler's delays).
+        const SYS_HZ: u32 = $hz;
 
         /// The panel as both cores see it, each drawing its tiles (counted
         /// for the progress log): the raw frame. (The demo draws through
@@ -662,9 +677,6 @@ macro_rules! pico_main {
                 }
             };
             let reset = crate::pico::last_reset(&$pac.WATCHDOG);
-            if !reset.is_empty() {
-                defmt::info!("{=str}", reset.as_str());
-            }
             $guard;
             let sio = crate::hal::Sio::new($pac.SIO);
             let pins = crate::hal::gpio::Pins::new(
@@ -689,6 +701,17 @@ macro_rules! pico_main {
             let mut timer: $timer = $make_timer;
             critical_section::with(|cs| TIMER.borrow(cs).set(Some(timer)));
             defmt::info!("clocks: {=u32} Hz", $clocks.system_clock.freq().to_Hz());
+            crate::usb_serial::start(crate::hal::usb::UsbBus::new(
+                $pac.$usb_regs,
+                $pac.$usb_dpram,
+                $clocks.usb_clock,
+                true,
+                &mut $pac.RESETS,
+            ));
+            crate::pico::log(crate::display_pack::PACK.name);
+            if !reset.is_empty() {
+                crate::pico::log(&reset);
+            }
             let panel = match panel_pins.panel(
                 $pac.SPI0,
                 &mut $pac.RESETS,
@@ -698,13 +721,18 @@ macro_rules! pico_main {
                 Ok(p) => p,
                 Err(step) => fail(&mut led, step),
             };
-            defmt::info!("panel ready (cleared, backlight on)");
+            crate::pico::log("panel ready (cleared, backlight on)");
 
             #[cfg(not(feature = "raw"))]
             {
                 use crate::hal::fugit::ExtU32;
                 for (name, why) in LEFT_OUT {
-                    defmt::info!("scene {=str} left out: {=str}", name, why);
+                    let mut line: heapless::String<160> = heapless::String::new();
+                    let _ = core::fmt::Write::write_fmt(
+                        &mut line,
+                        format_args!("scene {name} left out: {why}"),
+                    );
+                    crate::pico::log(&line);
                 }
                 critical_section::with(|cs| {
                     crate::display_pack::PANEL.borrow_ref_mut(cs).replace(panel)

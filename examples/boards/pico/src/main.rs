@@ -55,6 +55,8 @@ mod progress;
 mod queue;
 #[path = "../../../board/stack.rs"]
 mod stack;
+#[path = "../../../board/usb_serial.rs"]
+mod usb_serial;
 
 use defmt_rtt as _;
 
@@ -129,6 +131,8 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
 pico_main! {
     board: "Raspberry Pi Pico",
     timer: hal::Timer = |pac, clocks| hal::Timer::new(pac.TIMER, &mut pac.RESETS, &clocks),
+    usb: (USBCTRL_REGS, USBCTRL_DPRAM),
+    clock_hz: 125_000_000,
     queue: queue::LockedQueue,
     memory: pico::DemoMemory<{ (WIDTH / SCALE) as usize }, 80, 8, 16>,
     scale: if cfg!(feature = "pack-20") { 2 } else { 1 },

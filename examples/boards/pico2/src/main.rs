@@ -38,6 +38,8 @@ mod pico;
 mod progress;
 #[path = "../../../board/stack.rs"]
 mod stack;
+#[path = "../../../board/usb_serial.rs"]
+mod usb_serial;
 
 use defmt_rtt as _;
 
@@ -104,6 +106,8 @@ pico_main! {
     board: "Raspberry Pi Pico 2",
     timer: hal::Timer<hal::timer::CopyableTimer0> =
         |pac, clocks| hal::Timer::new_timer0(pac.TIMER0, &mut pac.RESETS, &clocks),
+    usb: (USB, USB_DPRAM),
+    clock_hz: 150_000_000,
     queue: micropt::multicore::AtomicQueue,
     memory: pico::DemoMemory<{ WIDTH as usize }, 512, 8, 32>,
     scale: 1,
