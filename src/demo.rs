@@ -219,9 +219,25 @@ impl From<DenoiseError> for DemoError {
 
 /// Where a pass's pixels come from: each pixel's `spp` samples summed in
 /// sample order into its moments (so that the bits do not depend on who
-/// renders them). One core: [`OneCore`]; a two-core board hands half of
-/// each row to its other core.
+/// renders them). One core: [`OneCore`]; a two-core board hands the odd
+/// pixels of each row to its other core. [`Demo::step`] calls
+/// [`Pixels::begin`] before a pass's first pixel and [`Pixels::end`] after
+/// its last, however the pass ends (finished, stopped by a press, failed),
+/// before the renderer is dropped: a source that lets another core use the
+/// renderer between the two must have it stop before `end` returns.
 pub trait Pixels {
+    /// A pass of `renderer`'s image at `spp` samples a pixel begins.
+    fn begin(&mut self, renderer: &Renderer<'_>, spp: u32) {
+        let _ = (renderer, spp);
+    }
+
+    /// The pass has ended: nothing may use its renderer after this
+    /// returns. The paths traced for it elsewhere (another core's), for
+    /// the pass's count.
+    fn end(&mut self) -> u64 {
+        0
+    }
+
     /// Pixel (x, y)'s moments at `spp` samples, asked row by row, left to
     /// right, by a pass of `renderer`'s image; `stats` counts the paths.
     fn moments(
@@ -661,7 +677,8 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
         let pressed = core::cell::Cell::new(None);
         let timed = self.pixel_limit.is_some();
         let mut slowest = 0u64;
-        let (done, noise) = render_pass(
+        pixels.begin(&renderer, spp);
+        let pass = render_pass(
             &renderer,
             spp,
             self.settings.raw,
@@ -697,7 +714,10 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
                 }
             },
             |_| pressed.get().is_none() && !failed.get(),
-        )?;
+        );
+        // the other core's part stops before the renderer goes
+        stats.paths += pixels.end();
+        let (done, noise) = pass?;
         if failed.get() {
             return Err(DemoError::Draw);
         }

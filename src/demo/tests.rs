@@ -438,3 +438,77 @@ fn the_boards_note_is_drawn_above_the_status_line_and_cut_to_fit() {
     d.set_note("");
     assert_eq!(d.note(), "");
 }
+
+/// A pixel source that counts its passes and checks they are bracketed.
+#[derive(Default)]
+struct Counted {
+    begun: u32,
+    ended: u32,
+    open: bool,
+    pixels: u32,
+}
+
+impl Pixels for Counted {
+    fn begin(&mut self, _: &Renderer<'_>, _: u32) {
+        assert!(!self.open, "begin without end");
+        self.open = true;
+        self.begun += 1;
+    }
+
+    fn moments(&mut self, r: &Renderer<'_>, spp: u32, x: u32, y: u32, s: &mut Stats) -> Moments {
+        assert!(self.open, "a pixel outside a pass");
+        self.pixels += 1;
+        pixel_moments(r, spp, x, y, s)
+    }
+
+    fn end(&mut self) -> u64 {
+        assert!(self.open, "end without begin");
+        self.open = false;
+        self.ended += 1;
+        1000
+    }
+}
+
+#[test]
+fn every_pass_is_ended_before_its_renderer_goes_however_it_ends() {
+    let mut scene = TestScene::EMPTY;
+    let mut columns = [Column::EMPTY; W];
+    let mut d = demo(&mut scene, &mut columns);
+    let (mut panel, mut line) = (Panel::<H>::new(), [Rgb565::new(0, 0, 0); W]);
+    let mut clock = Ticks { now: 0, step: 1 };
+    let mut px = Counted::default();
+    // finished: pass 0 and 1, the other core's paths counted
+    for k in 0..2 {
+        let step = d.step(&mut panel, &mut line, &mut px, &mut clock, || None);
+        let Ok(Step::Done(p)) = step else {
+            panic!("{step:?}")
+        };
+        assert_eq!(p.paths, 1000 + u64::from(pass_spp(1, k)) * (W * H) as u64);
+    }
+    // stopped by a press on the 5th pixel
+    let mut polls = 0;
+    let step = d.step(&mut panel, &mut line, &mut px, &mut clock, || {
+        polls += 1;
+        (polls == 5).then_some(Command::Exposure)
+    });
+    assert_eq!(step, Ok(Step::Interrupted(Command::Exposure)));
+    // failed: a row buffer too short is refused before the pass begins,
+    // a panel that refuses a row fails inside it
+    struct Refusing;
+    impl embedded_graphics::geometry::OriginDimensions for Refusing {
+        fn size(&self) -> Size {
+            Size::new(W as u32, H as u32)
+        }
+    }
+    impl DrawTarget for Refusing {
+        type Color = Rgb565;
+        type Error = ();
+        fn draw_iter<I: IntoIterator<Item = Pixel<Rgb565>>>(&mut self, _: I) -> Result<(), ()> {
+            Err(())
+        }
+    }
+    let step = d.step(&mut Refusing, &mut line, &mut px, &mut clock, || None);
+    assert_eq!(step, Err(DemoError::Draw));
+    assert_eq!((px.begun, px.ended, px.open), (4, 4, false));
+    assert!(px.pixels > 0);
+}
