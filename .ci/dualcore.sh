@@ -133,4 +133,26 @@ elif ! diff -u firmware/expected/an521.size "$OUT/an521.size"; then
         "(informational; .ci/dualcore.sh --bless updates)"
 fi
 
+dstep "the demo's passes on two cores (raw, denoised) = host CLI --passes 4"
+for dn in 0 1; do
+    rm -f "$OUT/passes-$dn.board.rgb565"
+    MICROPT_FW_SCENE=$SCENE MICROPT_FW_SIZE=48x32 MICROPT_FW_SPP=1 MICROPT_FW_SEED=0 \
+        MICROPT_FW_PASSES=4 MICROPT_FW_DENOISE=$dn MICROPT_FW_CORES=2 \
+        MICROPT_FW_OUT="$OUT/passes-$dn.board.rgb565" \
+        cargo build -p micropt --release --example dualcore --features firmware-an521 --target "$TARGET"
+    timeout 600 "${QEMU[@]}" -kernel "$ELF" >"$OUT/passes-$dn.run" ||
+        fail "the demo's passes (denoise $dn): the firmware failed"
+    cat "$OUT/passes-$dn.run"
+    # both cores rendered: core 1 the odd pixels, half of them
+    grep -Eq 'core 0 11520 paths, core 1 11520 paths' "$OUT/passes-$dn.run" ||
+        fail "the demo's passes (denoise $dn): the cores did not split the pixels"
+    flag=()
+    [ $dn = 1 ] && flag=(--denoise)
+    target/debug/micropt render "$SCENE" --size 48x32 --spp 1 --passes 4 --seed 0 "${flag[@]}" \
+        -o "$OUT/passes-$dn.host.rgb565"
+    cmp "$OUT/passes-$dn.board.rgb565" "$OUT/passes-$dn.host.rgb565" ||
+        fail "the demo's passes (denoise $dn): two cores' image differs from the host's"
+    echo "denoise $dn: two cores = host after 4 passes"
+done
+
 dstep "dualcore done"

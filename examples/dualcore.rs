@@ -38,6 +38,16 @@
 //! its refinement tiles; core 0 when every core has, and when the image is
 //! written.
 //!
+//! With `MICROPT_FW_PASSES=K` the firmware runs the demo's passes instead
+//! (`micropt::demo::render_pass`, raw or with `MICROPT_FW_DENOISE=1`
+//! denoised, pass k at `SPP · 2^k` samples a pixel) on both cores as the
+//! Picos' demo runs them: core 1 renders the odd pixels of each row
+//! (`examples/board/two_cores.rs`, the boards' code), core 0 the even ones,
+//! the denoiser and the framebuffer. The dump after the last pass is
+//! byte-identical with `micropt render SCENE --spp SPP --passes K
+//! [--denoise] --size WxH --seed S -o out.rgb565`; the summary gives each
+//! core's paths.
+//!
 //! A release build links with `panic-never` (no panic path left); debug
 //! builds use `panic-semihosting`.
 #![no_std]
@@ -69,6 +79,8 @@ use micropt::{AdaptiveOptions, Options, Renderer, Scene};
 
 #[path = "board/qemu.rs"]
 mod qemu;
+#[path = "board/two_cores.rs"]
+mod two_cores;
 use qemu::{HostFile, HostOut, STACK_PAINT, mark};
 
 /// The compile-time configuration written by `build.rs`.
@@ -96,6 +108,10 @@ static RENDERER: Handoff<Renderer<'static>> = Handoff::new();
 static CORE1_RESULT: Handoff<Result<Summary, SharedError<Infallible>>> = Handoff::new();
 /// Set by core 1's fault handler: core 0 stops waiting and fails.
 static CORE1_FAULT: AtomicBool = AtomicBool::new(false);
+/// The demo's passes (`MICROPT_FW_PASSES`): what the two cores share.
+static SHARED: two_cores::Shared = two_cores::Shared::new();
+/// The denoiser's columns for the demo's passes (none in other builds).
+const DEMO_COLUMNS: usize = if config::DEMO { WIDTH } else { 0 };
 
 /// The SSE-200 system control registers (secure alias): INITSVTOR1, the
 /// vector table core 1 starts from; CPUWAIT, bit `n` holds core `n` in
@@ -262,6 +278,7 @@ enum Error {
     Core1Fault,
     Open,
     Write,
+    Demo(micropt::demo::DemoError),
 }
 
 #[entry]
@@ -270,9 +287,11 @@ fn main() -> ! {
     // `#[entry]`: the scene (all zeros: .bss) and core 0's accumulators.
     static mut SCENE: FirmwareScene = FirmwareScene::EMPTY;
     static mut ACCUM: TileAccum = TileAccum::new();
+    static mut COLUMNS: [micropt::denoise::Column; DEMO_COLUMNS] =
+        [micropt::denoise::Column::EMPTY; DEMO_COLUMNS];
 
     mark(); // start of main: reset handler, stack paint and RAM init done
-    let status = match run(SCENE, ACCUM) {
+    let status = match run(SCENE, ACCUM, COLUMNS) {
         Ok(()) => debug::EXIT_SUCCESS,
         Err(e) => {
             report(&e);
@@ -300,7 +319,11 @@ fn adaptive() -> AdaptiveOptions {
     }
 }
 
-fn run(scene_slot: &'static mut FirmwareScene, acc: &'static mut TileAccum) -> Result<(), Error> {
+fn run(
+    scene_slot: &'static mut FirmwareScene,
+    acc: &'static mut TileAccum,
+    columns: &'static mut [micropt::denoise::Column],
+) -> Result<(), Error> {
     qemu::check_fpu_sqrt().map_err(Error::SqrtMismatch)?;
     let scene = load_scene(scene_slot)?;
     let renderer = Renderer::new(scene, WIDTH as u32, HEIGHT as u32)
@@ -324,6 +347,21 @@ fn run(scene_slot: &'static mut FirmwareScene, acc: &'static mut TileAccum) -> R
         start_core1();
     }
     mark(); // renderer set up, core 1 released: core 0's render begins
+    if config::DEMO {
+        let (mine, theirs) = passes(&renderer, columns)?;
+        dump()?;
+        mark(); // dump written
+        let mut out = HostOut::stdout();
+        let _ = writeln!(
+            out,
+            "micropt dualcore: {} passes of the demo ({}): core 0 {} paths, core 1 {} paths",
+            config::PASSES,
+            if config::DENOISE { "denoised" } else { "raw" },
+            mine,
+            theirs
+        );
+        return Ok(());
+    }
 
     let queue = CoreQueue::new(0);
     let mine = render_shared(
@@ -360,6 +398,56 @@ fn run(scene_slot: &'static mut FirmwareScene, acc: &'static mut TileAccum) -> R
 
     summary(&mine, theirs.as_ref());
     Ok(())
+}
+
+/// `MICROPT_FW_PASSES=K`: the demo's passes 0 to K − 1 into the
+/// framebuffer, the odd pixels of each from core 1 (a mark after each).
+/// Returns each core's paths. (Not inlined: its stack is not live in the
+/// other path.)
+#[inline(never)]
+// PASSES is a build setting, 0 (an empty range) in builds that never call
+// this
+#[allow(clippy::reversed_empty_ranges)]
+fn passes(
+    renderer: &Renderer<'_>,
+    columns: &mut [micropt::denoise::Column],
+) -> Result<(u64, u64), Error> {
+    use embedded_graphics::Pixel;
+    use embedded_graphics::draw_target::DrawTarget;
+    use embedded_graphics::geometry::Point;
+    use embedded_graphics::pixelcolor::Rgb565;
+    use micropt::demo::{Pixels, pass_spp, render_pass};
+    use micropt::film::FromEncoded;
+    let mut pixels = two_cores::TwoCores {
+        shared: &SHARED,
+        helper: CORES > 1,
+    };
+    let mut stats = micropt::Stats::default();
+    let mut theirs = 0;
+    for k in 0..config::PASSES {
+        let spp = pass_spp(config::SPP, k);
+        pixels.begin(renderer, spp);
+        let pass = render_pass(
+            renderer,
+            spp,
+            !config::DENOISE,
+            columns,
+            |x, y| pixels.moments(renderer, spp, x, y, &mut stats),
+            |y, x, c| {
+                let colour = Rgb565::from_encoded(micropt::film::tone_map(c, EXPOSURE), x, y);
+                let at = Point::new(x as i32, y as i32);
+                let _ = (&FRAMEBUFFER).draw_iter(core::iter::once(Pixel(at, colour)));
+            },
+            |_| true,
+        );
+        theirs += pixels.end();
+        pass.map_err(Error::Demo)?;
+        if CORE1_FAULT.load(Ordering::Relaxed) {
+            return Err(Error::Core1Fault);
+        }
+        mark(); // pass k in the framebuffer
+    }
+    Ok((stats.paths, theirs))
 }
 
 /// Paints core 1's stack, points INITSVTOR1 at core 1's vector table and
@@ -402,6 +490,9 @@ extern "C" fn core1_reset() -> ! {
 #[inline(never)]
 fn core1_main() -> ! {
     mark(); // core 1 started: its render begins
+    if config::DEMO {
+        SHARED.serve()
+    }
     let queue = CoreQueue::new(1);
     let renderer = loop {
         if let Some(r) = RENDERER.get() {
@@ -540,6 +631,7 @@ fn report(e: &Error) {
             o.write_str("a deadline budget is not shared between cores (use a sample budget)\n")
         }
         Error::Core1Fault => o.write_str("core 1 took a fault\n"),
+        Error::Demo(d) => writeln!(o, "the demo's pass: {d}"),
         Error::Open => {
             qemu::write_file_error(o, output_name(), true);
             Ok(())

@@ -38,7 +38,7 @@ use {
 #[cfg(not(feature = "raw"))]
 use {
     embedded_graphics::pixelcolor::{Rgb565, RgbColor},
-    micropt::demo::{Buttons, Command, Demo, DemoError, Entry, OneCore, Press, Step as DemoStep},
+    micropt::demo::{Buttons, Command, Demo, DemoError, Entry, Pixels, Press, Step as DemoStep},
     micropt::denoise::Column,
 };
 
@@ -195,7 +195,8 @@ impl micropt::Clock for Micros {
 pub const WATCHDOG_US: u32 = 8_000_000;
 
 /// The demo, forever, on core 0: pass after pass of `entries` into
-/// `target` (`size`, rendered with `seed`), `pressed()` read before each
+/// `target` (`size`, rendered with `seed`; the pixels from `pixels`: both
+/// cores, [`crate::two_cores::TwoCores`]), `pressed()` read before each
 /// pixel (A, B, X, Y; `true`: pressed; it also feeds the watchdog),
 /// debounced ([`Buttons`]). No pass is started whose pixels could outlast
 /// [`WATCHDOG_US`] ([`Demo::set_pixel_limit`]). The line above the status
@@ -211,6 +212,7 @@ pub fn demo<D, P, const W: usize, const S: usize, const PL: usize, const M: usiz
     memory: Option<&'static mut DemoMemory<W, S, PL, M>>,
     (size, seed): ((u32, u32), u64),
     mut target: D,
+    mut pixels: impl Pixels,
     mut pressed: impl FnMut() -> [bool; 4],
     led: &mut Led<P>,
     now: fn() -> u64,
@@ -248,7 +250,7 @@ where
         }
         let _ = write!(note, "stack {used}/{stack} B");
         demo.set_note(&note);
-        match demo.step(&mut target, line, &mut OneCore, &mut clock, &mut poll) {
+        match demo.step(&mut target, line, &mut pixels, &mut clock, &mut poll) {
             Ok(DemoStep::Done(_)) => {
                 let mut text: heapless::String<120> = heapless::String::new();
                 let _ = demo.status(&mut text);
@@ -638,6 +640,15 @@ macro_rules! pico_main {
         #[cfg(feature = "raw")]
         static CORE1_STACK: crate::hal::multicore::Stack<4096> =
             crate::hal::multicore::Stack::new();
+        /// Core 1's stack in the demo: 8 KiB (it renders pixels only; the
+        /// render's deepest stack measured in QEMU is 4,288 bytes on the
+        /// M0, 3,840 on the M33: docs/boards.md).
+        #[cfg(not(feature = "raw"))]
+        static CORE1_STACK: crate::hal::multicore::Stack<2048> =
+            crate::hal::multicore::Stack::new();
+        /// What the demo's two cores share.
+        #[cfg(not(feature = "raw"))]
+        static SHARED: crate::two_cores::Shared = crate::two_cores::Shared::new();
         /// The demo's memory: the denoiser's rings, a row of colours, the
         /// scene.
         #[cfg(not(feature = "raw"))]
@@ -742,6 +753,24 @@ macro_rules! pico_main {
                     size: embedded_graphics::geometry::Size::new(WIDTH, HEIGHT),
                 };
                 let target = $wrap;
+                // core 1 renders the odd pixels of each pass
+                let mut fifo = sio.fifo;
+                let mut mc =
+                    crate::hal::multicore::Multicore::new(&mut $pac.PSM, &mut $pac.PPB, &mut fifo);
+                let cores = mc.cores();
+                let helper = match CORE1_STACK.take() {
+                    Some(stack) => cores[1].spawn(stack, || SHARED.serve()).is_ok(),
+                    None => false,
+                };
+                crate::pico::log(if helper {
+                    "two cores: core 1 renders the odd pixels"
+                } else {
+                    "core 1 did not start: core 0 renders alone"
+                });
+                let pixels = crate::two_cores::TwoCores {
+                    shared: &SHARED,
+                    helper,
+                };
                 watchdog.pause_on_debug(true);
                 watchdog.start(crate::pico::WATCHDOG_US.micros());
                 let mut buttons = buttons;
@@ -750,6 +779,7 @@ macro_rules! pico_main {
                     MEMORY.try_take(),
                     ((WIDTH / SCALE, HEIGHT / SCALE), SEED),
                     target,
+                    pixels,
                     move || {
                         watchdog.feed();
                         buttons.pressed()

@@ -38,6 +38,9 @@ mod pico;
 mod progress;
 #[path = "../../../board/stack.rs"]
 mod stack;
+#[cfg(not(feature = "raw"))]
+#[path = "../../../board/two_cores.rs"]
+mod two_cores;
 #[path = "../../../board/usb_serial.rs"]
 mod usb_serial;
 
