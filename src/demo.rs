@@ -455,6 +455,8 @@ pub struct Demo<'a, const S: usize, const P: usize, const M: usize> {
     pixel_limit: Option<u64>,
     /// The board's line above the status line ([`Demo::set_note`]).
     note: heapless::String<NOTE_LEN>,
+    /// The block preview's block size ([`Demo::set_preview_block`]).
+    preview_block: u32,
 }
 
 /// The longest note a board can put above the status line
@@ -495,7 +497,16 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
             last: None,
             pixel_limit: None,
             note: heapless::String::new(),
+            preview_block: 2,
         })
+    }
+
+    /// Sets the block preview's block: before pass 0 each `n` × `n` block
+    /// shows its top-left pixel's first sample, `1 / n²` of pass 0's work
+    /// (2 by default; 4 where pass 0 is slow, as on the soft-float boards;
+    /// 0 or 1: no preview). At most 16.
+    pub fn set_preview_block(&mut self, n: u32) {
+        self.preview_block = n.min(16);
     }
 
     /// Sets the longest a pixel may take, in the clock's microseconds (a
@@ -658,7 +669,7 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
         // the first pass is preceded by a quarter of it: each 2 × 2 block
         // shows its top-left pixel's first sample (a quarter of the work,
         // drawn over by the pass as its rows land)
-        let preview = if self.pass == 0 {
+        let preview = if self.pass == 0 && self.preview_block > 1 {
             self.block_preview(&renderer, target, line, exposure, &mut poll)?
         } else {
             None
@@ -747,8 +758,9 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
     }
 
     /// The block preview before pass 0: one sample of the top-left pixel
-    /// of each 2 × 2 block (the pixel's sample 0, as pass 0 renders it),
-    /// drawn over the block, two rows at a time. Returns the button
+    /// of each block ([`Demo::set_preview_block`]; the pixel's sample 0,
+    /// as pass 0 renders it), drawn over the block, a block's rows at a
+    /// time. Returns the button
     /// pressed, if one stopped it (asked before each block).
     fn block_preview<D>(
         &self,
@@ -763,20 +775,21 @@ impl<'a, const S: usize, const P: usize, const M: usize> Demo<'a, S, P, M> {
         D::Color: FromEncoded,
     {
         let (w, h) = (self.width, self.height);
+        let n = self.preview_block.max(1);
         let mut stats = Stats::default();
-        for y in (0..h).step_by(2) {
-            for x in (0..w).step_by(2) {
+        for y in (0..h).step_by(n as usize) {
+            for x in (0..w).step_by(n as usize) {
                 if let Some(c) = poll() {
                     return Ok(Some(c));
                 }
                 let m = pixel_moments(renderer, 1, x, y, &mut stats);
                 let colour = D::Color::from_encoded(tone_map(m.mean(1), exposure), x, y);
-                for px in line.iter_mut().skip(x as usize).take(2) {
+                for px in line.iter_mut().skip(x as usize).take(n as usize) {
                     *px = colour;
                 }
             }
             let rows = Rectangle::new(Point::new(0, y as i32), Size::new(w, 1));
-            for dy in 0..2u32.min(h - y) {
+            for dy in 0..n.min(h - y) {
                 let row = rows.translate(Point::new(0, dy as i32));
                 let colours = line.iter().take(w as usize).copied();
                 target

@@ -195,7 +195,8 @@ impl micropt::Clock for Micros {
 pub const WATCHDOG_US: u32 = 8_000_000;
 
 /// The demo, forever, on core 0: pass after pass of `entries` into
-/// `target` (`size`, rendered with `seed`; the pixels from `pixels`: both
+/// `target` (`size`, rendered with `seed`, the block preview's blocks
+/// `preview_block` wide; the pixels from `pixels`: both
 /// cores, [`crate::two_cores::TwoCores`]), `pressed()` read before each
 /// pixel (A, B, X, Y; `true`: pressed; it also feeds the watchdog),
 /// debounced ([`Buttons`]). No pass is started whose pixels could outlast
@@ -210,7 +211,7 @@ pub const WATCHDOG_US: u32 = 8_000_000;
 pub fn demo<D, P, const W: usize, const S: usize, const PL: usize, const M: usize>(
     entries: &'static [Entry],
     memory: Option<&'static mut DemoMemory<W, S, PL, M>>,
-    (size, seed): ((u32, u32), u64),
+    (size, seed, preview_block): ((u32, u32), u64, u32),
     mut target: D,
     mut pixels: impl Pixels,
     mut pressed: impl FnMut() -> [bool; 4],
@@ -238,6 +239,7 @@ where
         }
     };
     demo.set_pixel_limit(u64::from(WATCHDOG_US));
+    demo.set_preview_block(preview_block);
     let mut buttons: Buttons<4> = Buttons::new();
     let mut clock = Micros(now);
     let mut poll = move || buttons.update(now(), pressed()).and_then(command);
@@ -592,7 +594,8 @@ where
 /// it; `queue`: the raw frame's tile queue type; `memory`: the demo's
 /// static memory type ([`DemoMemory`]); `scale`: the demo's image is the
 /// panel's size divided by it, `target` wraps the panel to draw it at
-/// that scale; `guard`: sets core 0's stack guard from `core` (the Cortex-M
+/// that scale; `preview_block`: the demo's block preview's block size;
+/// `guard`: sets core 0's stack guard from `core` (the Cortex-M
 /// peripherals); `usb`: the PAC's names of the USB controller's registers
 /// and its RAM; `clock_hz`: the system clock. The caller has `SCENES` (the demo's), `LEFT_OUT` (the
 /// shipped ones it leaves out, and why), `SEED`, `BUDGET` (raw) and
@@ -606,6 +609,7 @@ macro_rules! pico_main {
         queue: $queue:ty,
         memory: $memory:ty,
         scale: $scale:expr,
+        preview_block: $preview:expr,
         target: |$t:ident| $wrap:expr,
         guard: |$core:ident| $guard:expr $(,)?
     ) => {
@@ -777,7 +781,7 @@ macro_rules! pico_main {
                 crate::pico::demo(
                     SCENES,
                     MEMORY.try_take(),
-                    ((WIDTH / SCALE, HEIGHT / SCALE), SEED),
+                    ((WIDTH / SCALE, HEIGHT / SCALE), SEED, $preview),
                     target,
                     pixels,
                     move || {

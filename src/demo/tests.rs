@@ -330,34 +330,53 @@ fn buttons_count_after_the_bounce_and_tell_short_from_long() {
 
 #[test]
 fn the_first_pass_starts_with_a_preview_of_one_pixel_per_block() {
+    for n in [2, 4] {
+        let mut scene = TestScene::EMPTY;
+        let mut columns = [Column::EMPTY; W];
+        let mut d = demo(&mut scene, &mut columns);
+        d.set_preview_block(n as u32);
+        d.apply(Command::Status).unwrap();
+        let (mut panel, mut line) = (Panel::<H>::new(), [Rgb565::new(0, 0, 0); W]);
+        let mut clock = Ticks { now: 0, step: 1 };
+        // the press comes at the first poll after the preview's blocks: the
+        // panel holds the whole preview
+        let blocks = (W / n) * (H / n);
+        let mut polls = 0;
+        let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || {
+            polls += 1;
+            (polls == blocks + 1).then_some(Command::Orbit)
+        });
+        assert_eq!(step, Ok(Step::Interrupted(Command::Orbit)));
+        let mut distinct = 0;
+        for by in (0..H).step_by(n) {
+            for bx in (0..W).step_by(n) {
+                let c = panel.px[by][bx];
+                for y in by..by + n {
+                    for x in bx..bx + n {
+                        assert_eq!(panel.px[y][x], c, "block ({bx}, {by}) of {n}");
+                    }
+                }
+                distinct += usize::from(bx > 0 && c != panel.px[by][bx - n]);
+            }
+        }
+        // an image, not a flat fill
+        assert!(distinct > 0, "{n}");
+        assert_eq!(d.pass(), 0);
+    }
+    // no preview: the first poll is pass 0's first pixel's
     let mut scene = TestScene::EMPTY;
     let mut columns = [Column::EMPTY; W];
     let mut d = demo(&mut scene, &mut columns);
-    d.apply(Command::Status).unwrap();
+    d.set_preview_block(1);
     let (mut panel, mut line) = (Panel::<H>::new(), [Rgb565::new(0, 0, 0); W]);
     let mut clock = Ticks { now: 0, step: 1 };
-    // the press comes at the first poll after the preview's blocks: the
-    // panel holds the whole preview
-    let blocks = (W / 2) * (H / 2);
     let mut polls = 0;
     let step = d.step(&mut panel, &mut line, &mut OneCore, &mut clock, || {
         polls += 1;
-        (polls == blocks + 1).then_some(Command::Orbit)
+        None
     });
-    assert_eq!(step, Ok(Step::Interrupted(Command::Orbit)));
-    let mut distinct = 0;
-    for by in (0..H).step_by(2) {
-        for bx in (0..W).step_by(2) {
-            let c = panel.px[by][bx];
-            for (y, x) in [(by, bx + 1), (by + 1, bx), (by + 1, bx + 1)] {
-                assert_eq!(panel.px[y][x], c, "block ({bx}, {by})");
-            }
-            distinct += usize::from(bx > 0 && c != panel.px[by][bx - 2]);
-        }
-    }
-    // an image, not a flat fill
-    assert!(distinct > 0);
-    assert_eq!(d.pass(), 0);
+    assert!(matches!(step, Ok(Step::Done(p)) if p.pass == 0), "{step:?}");
+    assert_eq!(polls, W * H);
 }
 
 #[test]

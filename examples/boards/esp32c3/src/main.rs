@@ -333,6 +333,8 @@ fn main() -> ! {
             }
         };
         demo.set_pixel_limit(WATCHDOG_US);
+        // soft float: 4 × 4 blocks, a sixteenth of pass 0 (about 0.8 s)
+        demo.set_preview_block(4);
         let mut target = target;
         // the RTC watchdog (esp_hal::init stops it): stage 0 resets the
         // system after 8 s without a feed
