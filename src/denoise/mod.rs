@@ -469,7 +469,9 @@ impl<'w> Denoiser<'w> {
             *slot = Tap {
                 across: [Color::ZERO; WIDTHS.len()],
                 normal: t.normal,
-                spread: t.spread,
+                // in the filters' domain (radiance over albedo), where the
+                // outlier test compares taps
+                spread: t.spread / albedo_square(t.albedo),
                 key: t.key,
                 filtered: t.filtered,
                 flat: t.flat,
@@ -496,7 +498,8 @@ impl<'w> Denoiser<'w> {
             let Some(g) = self.columns.get(x).and_then(|c| {
                 let t = c.taps.get(slot)?;
                 let p = c.centres.get(centre)?;
-                t.filtered.then(|| guide3(t, p, self.guards))
+                t.filtered
+                    .then(|| guide3(t, p, albedo_square(p.albedo), self.guards))
             }) else {
                 continue;
             };
@@ -667,7 +670,8 @@ fn candidate_at(
     let mut sum = [Color::ZERO; WIDTHS.len()];
     let mut wsum = [0.0f32; WIDTHS.len()];
     let [narrow, wide] = weights;
-    let g = guide3(t, p, guards);
+    let p_albedo2 = albedo_square(p.albedo);
+    let g = guide3(t, p, p_albedo2, guards);
     for ((row, &ww), &wn) in rows.iter().zip(wide).zip(narrow) {
         let Some(q) = row.and_then(|r| taps.get(r)) else {
             continue;
@@ -703,7 +707,9 @@ fn candidate_at(
         // the consistency guard: a filter may move the pixel by at most
         // CONSISTENCY of its own standard errors (else it is biased here,
         // whatever its window's SURE says)
-        consistent[k] = !guards.consistency || d * d <= CONSISTENCY * CONSISTENCY * t.spread;
+        // (the pixel's spread back in radiance: the tap's is over albedo)
+        consistent[k] =
+            !guards.consistency || d * d <= CONSISTENCY * CONSISTENCY * t.spread * p_albedo2;
         filtered[k] = f;
     }
     sure[WIDTHS.len()] = p.variance;
@@ -723,6 +729,14 @@ fn candidate_at(
     };
 }
 
+/// The square of an albedo's luminance (at least [`MIN_ALBEDO`]): what a
+/// spread of radiance is divided by in the filters' domain.
+#[inline(always)]
+fn albedo_square(albedo: Color) -> f32 {
+    let a = math::max(albedo.luminance(), MIN_ALBEDO);
+    a * a
+}
+
 /// What [`similar`] reads of the pixel whose taps it tests.
 #[derive(Clone, Copy)]
 struct Guide3 {
@@ -739,10 +753,13 @@ struct Guide3 {
 /// a tap it would move them by more than their own noise. (The pixel
 /// itself is always its own tap.)
 #[inline(always)]
-fn guide3(t: &Tap, p: &Centre, guards: Guards) -> Guide3 {
+fn guide3(t: &Tap, p: &Centre, albedo2: f32, guards: Guards) -> Guide3 {
     let outlier = if guards.outlier {
         let l = p.scattered.luminance();
-        OUTLIER * OUTLIER * math::max(t.spread, OUTLIER_FLOOR * l * l)
+        // both in the filters' domain (over the albedo): a tap's samples
+        // are averaged divided by its albedo, so a firefly on a dark
+        // texel weighs as much more as its albedo is darker
+        OUTLIER * OUTLIER * math::max(t.spread, OUTLIER_FLOOR * l * l / albedo2)
     } else {
         f32::INFINITY
     };
