@@ -316,10 +316,46 @@ fn record(kind: Kind, value: u32, name: [u8; 8]) {
     }
 }
 
-/// Records why the board restarts and restarts it (a system reset
-/// request; the watchdog's scratch registers survive it).
+/// A hard fault: records why the board restarts; unless the stack
+/// overflowed (then the handler's own stack is the guard's few bytes, and
+/// it restarts at once), writes the fault and its address on the panel
+/// and over USB as the panic handler does ([`show_and_restart`]); then
+/// restarts (a system reset request; the watchdog's scratch registers
+/// survive it).
 pub fn restart(kind: Kind, value: u32) -> ! {
     record(kind, value, [0; 8]);
+    if matches!(kind, Kind::StackOverflow) {
+        cortex_m::peripheral::SCB::sys_reset()
+    }
+    let mut text: heapless::String<64> = heapless::String::new();
+    let _ = write!(text, "hard fault at {value:#010x}\nrestarting");
+    error!("{=str}", text.as_str());
+    show_and_restart(&text)
+}
+
+/// A fatal message: the LED red, `text` white on red on the panel (if it
+/// is set up and not in the middle of a drawing call) and over USB serial
+/// (the device polled here: interrupts are off), about 8 seconds to read
+/// it, then a restart (the watchdog, if it runs, restarts the board at
+/// about the same time).
+fn show_and_restart(text: &str) -> ! {
+    cortex_m::interrupt::disable();
+    // the LED red: GP6 low, GP7 and GP8 high (active low)
+    // SAFETY: single writes to the SIO's set and clear registers, which
+    // change only the LED's three outputs
+    let sio = unsafe { &*hal::pac::SIO::ptr() };
+    unsafe {
+        sio.gpio_out_set().write(|w| w.bits(1 << 7 | 1 << 8));
+        sio.gpio_out_clr().write(|w| w.bits(1 << 6));
+    }
+    critical_section::with(|cs| {
+        if let Ok(mut panel) = crate::display_pack::PANEL.borrow(cs).try_borrow_mut()
+            && let Some(panel) = panel.as_mut()
+        {
+            let _ = crate::panic_screen::write_text(panel, text);
+        }
+    });
+    crate::usb_serial::print_polling(text, 8_000, crate::SYS_HZ);
     cortex_m::peripheral::SCB::sys_reset()
 }
 
@@ -399,27 +435,9 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     let (line, file) = info.location().map_or((0, ""), |l| (l.line(), l.file()));
     record(Kind::Panic, line, short_name(file));
     error!("{}", defmt::Display2Format(info));
-    // the LED red: GP6 low, GP7 and GP8 high (active low)
-    // SAFETY: single writes to the SIO's set and clear registers, which
-    // change only the LED's three outputs
-    let sio = unsafe { &*hal::pac::SIO::ptr() };
-    unsafe {
-        sio.gpio_out_set().write(|w| w.bits(1 << 7 | 1 << 8));
-        sio.gpio_out_clr().write(|w| w.bits(1 << 6));
-    }
     let mut text: heapless::String<320> = heapless::String::new();
     let _ = write!(text, "{info}");
-    critical_section::with(|cs| {
-        if let Ok(mut panel) = crate::display_pack::PANEL.borrow(cs).try_borrow_mut()
-            && let Some(panel) = panel.as_mut()
-        {
-            let _ = crate::panic_screen::write_text(panel, &text);
-        }
-    });
-    // the message over USB serial too, the device polled here (interrupts
-    // are off) while the panel shows it
-    crate::usb_serial::print_polling(&text, 8_000, crate::SYS_HZ);
-    cortex_m::peripheral::SCB::sys_reset()
+    show_and_restart(&text)
 }
 
 /// What core 1 is given to run for a raw frame ([`RawCore1::run`]).

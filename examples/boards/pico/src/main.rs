@@ -122,7 +122,8 @@ fn guard_stack(mpu: &mut cortex_m::peripheral::MPU) {
 }
 
 /// A hard fault (the MPU's stack guard included, when the core can still
-/// push the frame): recorded, then the board restarts.
+/// push the frame): recorded, shown on the panel and over USB, then the
+/// board restarts.
 #[cortex_m_rt::exception]
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     pico::restart(pico::Kind::Fault, frame.pc())

@@ -89,8 +89,9 @@ fn guard_stack(scb: &mut cortex_m::peripheral::SCB) {
     }
 }
 
-/// A hard fault: a stack overflow (CFSR's STKOF) or another fault,
-/// recorded, then the board restarts.
+/// A hard fault: a stack overflow (CFSR's STKOF: recorded, then the board
+/// restarts at once) or another fault (recorded, shown on the panel and
+/// over USB, then the board restarts).
 #[cortex_m_rt::exception]
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     // SAFETY: a read of the fault status register
