@@ -3,6 +3,8 @@
 //!
 //! Shared by the board crates in `examples/boards/` (`#[path]`).
 
+use core::cell::RefCell;
+use critical_section::Mutex;
 use embedded_graphics::Drawable;
 use embedded_graphics::draw_target::DrawTarget;
 use embedded_graphics::geometry::{OriginDimensions, Point, Size};
@@ -10,6 +12,22 @@ use embedded_graphics::mono_font::{MonoTextStyle, ascii::FONT_6X10};
 use embedded_graphics::pixelcolor::{Rgb565, RgbColor};
 use embedded_graphics::primitives::Rectangle;
 use embedded_graphics::text::{Baseline, Text};
+
+/// Writes `text` on the panel in `panel` (a panic handler's view of the
+/// panel the demo draws to), unless the panel is not set up or is in the
+/// middle of a drawing call (the panic struck there).
+pub fn show<D>(panel: &Mutex<RefCell<Option<D>>>, text: &str)
+where
+    D: DrawTarget<Color = Rgb565> + OriginDimensions,
+{
+    critical_section::with(|cs| {
+        if let Ok(mut panel) = panel.borrow(cs).try_borrow_mut()
+            && let Some(panel) = panel.as_mut()
+        {
+            let _ = write_text(panel, text);
+        }
+    });
+}
 
 /// Writes `text` on `panel` (as many lines as fit).
 pub fn write_text<D>(panel: &mut D, text: &str) -> Result<(), D::Error>

@@ -13,7 +13,7 @@
 //! watchdog) in the watchdog's scratch registers, shown on the line above
 //! the status line after the restart ([`last_reset`]); the stack painted
 //! at boot and its high-water mark on that line ([`paint_stack`],
-//! `stack_use`).
+//! [`crate::stack::note`]).
 //!
 //! Shared by the Pico board crates in `examples/boards/` (`#[path]`).
 
@@ -245,12 +245,7 @@ where
     let mut poll = move || buttons.update(now(), pressed()).and_then(command);
     led.set(BLUE);
     loop {
-        let mut note: heapless::String<48> = heapless::String::new();
-        let (used, stack) = stack_use();
-        if !reset.is_empty() {
-            let _ = write!(note, "{reset}, ");
-        }
-        let _ = write!(note, "stack {used}/{stack} B");
+        let note = crate::stack::note(reset, stack_guard() + GUARD);
         demo.set_note(&note);
         match demo.step(&mut target, line, &mut pixels, &mut clock, &mut poll) {
             Ok(DemoStep::Done(_)) => {
@@ -348,13 +343,7 @@ fn show_and_restart(text: &str) -> ! {
         sio.gpio_out_set().write(|w| w.bits(1 << 7 | 1 << 8));
         sio.gpio_out_clr().write(|w| w.bits(1 << 6));
     }
-    critical_section::with(|cs| {
-        if let Ok(mut panel) = crate::display_pack::PANEL.borrow(cs).try_borrow_mut()
-            && let Some(panel) = panel.as_mut()
-        {
-            let _ = crate::panic_screen::write_text(panel, text);
-        }
-    });
+    crate::panic_screen::show(&crate::display_pack::PANEL, text);
     crate::usb_serial::print_polling(text, 8_000, crate::SYS_HZ);
     cortex_m::peripheral::SCB::sys_reset()
 }
@@ -403,14 +392,6 @@ pub fn stack_guard() -> usize {
 #[inline(always)]
 pub fn paint_stack() {
     crate::stack::paint(stack_guard() + GUARD);
-}
-
-/// The stack's high-water mark and its size above the guard, in bytes
-/// ([`crate::stack::high_water`]; not the guard: a read of it faults on
-/// the M0+).
-#[cfg(not(feature = "raw"))]
-pub fn stack_use() -> (usize, usize) {
-    crate::stack::high_water(stack_guard() + GUARD)
 }
 
 /// The name of a source file (after its last `/`), 8 bytes at most.

@@ -60,3 +60,18 @@ pub fn high_water(low: usize) -> (usize, usize) {
     }
     (top - p, top - low)
 }
+
+/// The demo's note line: why the board last restarted (`reset`, if it
+/// did) and the stack's high-water mark above `low` ([`high_water`]), for
+/// example `reset: watchdog, stack 5120/52584 B`.
+#[cfg_attr(feature = "raw", allow(dead_code))]
+pub fn note(reset: &str, low: usize) -> heapless::String<48> {
+    use core::fmt::Write;
+    let mut note = heapless::String::new();
+    let (used, size) = high_water(low);
+    if !reset.is_empty() {
+        let _ = write!(note, "{reset}, ");
+    }
+    let _ = write!(note, "stack {used}/{size} B");
+    note
+}

@@ -228,13 +228,7 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     println!("panic: {info}");
     let mut text: heapless::String<320> = heapless::String::new();
     let _ = write!(text, "{info}");
-    critical_section::with(|cs| {
-        if let Ok(mut panel) = PANEL.borrow(cs).try_borrow_mut()
-            && let Some(panel) = panel.as_mut()
-        {
-            let _ = panic_screen::write_text(panel, &text);
-        }
-    });
+    panic_screen::show(&PANEL, &text);
     Delay::new().delay_millis(8_000);
     esp_hal::system::software_reset()
 }
@@ -353,12 +347,7 @@ fn main() -> ! {
             }
         };
         loop {
-            let mut note: heapless::String<48> = heapless::String::new();
-            let (used, size) = stack::high_water(stack::bounds().0 + GUARD);
-            if !reset.is_empty() {
-                let _ = write!(note, "{reset}, ");
-            }
-            let _ = write!(note, "stack {used}/{size} B");
+            let note = stack::note(&reset, stack::bounds().0 + GUARD);
             demo.set_note(&note);
             match demo.step(&mut target, line, &mut OneCore, &mut SysClock, &mut poll) {
                 Ok(Step::Done(_)) => {
