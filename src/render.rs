@@ -12,7 +12,7 @@ use crate::scene::{Scene, SceneView};
 #[cfg(feature = "highlight")]
 use crate::{
     highlight::{self, Highlights, PixelHighlights},
-    sampler::{mix64, sobol_2d},
+    sampler::{mix64, sobol_2d, to_unit},
 };
 
 /// The stratified pair of a sample's stream that places a lens camera's
@@ -164,6 +164,7 @@ impl<'a> Renderer<'a> {
             #[cfg(feature = "highlight")]
             highlights: self
                 .highlights_on()
+                .filter(|_| self.options.highlights)
                 .map_or(PixelHighlights::NONE, |h| h.at(x, y)),
         }
     }
@@ -175,14 +176,17 @@ impl<'a> Renderer<'a> {
         &self.highlights
     }
 
-    /// The pairs this render samples from the light's side: none when
-    /// [`Options::highlights`] is off, or when paths end before they could
-    /// meet a light after a mirror.
+    /// The pairs this render samples from the light's side or through the
+    /// mirror: none when both [`Options::highlights`] and
+    /// [`Options::caustics`] are off, or when paths end before they could
+    /// meet a light after a mirror. (Each estimator checks its own switch.)
     #[cfg(feature = "highlight")]
     #[inline(always)]
     fn highlights_on(&self) -> Option<&Highlights> {
-        (self.options.highlights && self.options.max_depth >= 2 && !self.highlights.is_empty())
-            .then_some(&self.highlights)
+        ((self.options.highlights || self.options.caustics)
+            && self.options.max_depth >= 2
+            && !self.highlights.is_empty())
+        .then_some(&self.highlights)
     }
 
     /// How many (mirror, light) pairs this render samples from the light's
@@ -190,7 +194,24 @@ impl<'a> Renderer<'a> {
     pub fn highlight_pairs(&self) -> usize {
         #[cfg(feature = "highlight")]
         {
-            self.highlights_on().map_or(0, |h| h.as_slice().len())
+            self.highlights_on()
+                .filter(|_| self.options.highlights)
+                .map_or(0, |h| h.as_slice().len())
+        }
+        #[cfg(not(feature = "highlight"))]
+        {
+            0
+        }
+    }
+
+    /// How many (mirror, light) pairs this render samples the caustics of
+    /// through the mirror (0 in a build without the `highlight` feature).
+    pub fn caustic_pairs(&self) -> usize {
+        #[cfg(feature = "highlight")]
+        {
+            self.highlights_on()
+                .filter(|_| self.options.caustics)
+                .map_or(0, |h| h.caustics().len())
         }
         #[cfg(not(feature = "highlight"))]
         {
@@ -289,8 +310,16 @@ impl<'a> Renderer<'a> {
         let mut c = Color::ZERO;
         pixel.highlights.each(&self.highlights, x, y, |k, p| {
             // the pair's own scrambled Sobol points over the pixel's
-            // samples, also when the path's numbers are independent
-            let rnd = sobol_2d(index, pixel.key ^ mix64(k as u64 + 1));
+            // samples; independent numbers when the render's are (so that
+            // an unstratified render is plain Monte Carlo throughout, its
+            // MSE exactly 1/N)
+            let key = pixel.key ^ mix64(k as u64 + 1);
+            let rnd = if self.options.stratified {
+                sobol_2d(index, key)
+            } else {
+                let z = mix64(key ^ mix64(u64::from(index)));
+                [to_unit(z as u32), to_unit((z >> 32) as u32)]
+            };
             if let Some(v) = highlight::estimate(&self.scene, &self.camera, p, x, y, rnd, stats) {
                 c += v;
             }

@@ -207,6 +207,12 @@ struct RenderArgs {
     /// more noise where such an image is a fraction of a pixel).
     #[arg(long)]
     no_highlights: bool,
+    /// Diagnostics: find the light that reaches a surface by one reflection
+    /// in a mirror sphere by BSDF sampling only, not also by a sample
+    /// through the mirror (the same expectation, more noise in the
+    /// caustics of small lights).
+    #[arg(long)]
+    no_caustics: bool,
     /// Denoise the image (every output format): render --spp samples in
     /// every pixel (uniform sampling; needs --spp or its default, not
     /// --budget-paths or --budget-ms) and filter them with the core's
@@ -380,6 +386,7 @@ impl RenderArgs {
             skip: self.no_skip.unwrap_or(Skip::ALL),
             strategy: self.strategy,
             highlights: !self.no_highlights,
+            caustics: !self.no_caustics,
             ..Options::default()
         }
     }
@@ -485,6 +492,8 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
             "bvh_depth": if job.options.skip.bvh { scene.bvh().depth() } else { 0 },
             "highlight_pairs": micropt::Renderer::new(&scene, width, height)
                 .map_or(0, |r| r.options(job.options).highlight_pairs()),
+            "caustic_pairs": micropt::Renderer::new(&scene, width, height)
+                .map_or(0, |r| r.options(job.options).caustic_pairs()),
             "threads": out.threads,
             "rays_per_second": s.rays() as f64 / out.seconds.max(1e-9),
         });

@@ -195,6 +195,12 @@ pub struct Options {
     /// not only by film position: the same expectation, less noise where
     /// such an image is a fraction of a pixel.
     pub highlights: bool,
+    /// Sample the light that reaches a path's first non-delta vertex by
+    /// one reflection in a mirror sphere through the mirror
+    /// ([`crate::highlight::caustic_sample`]; feature `highlight`), not only
+    /// by the BSDF sample: the same expectation, less noise where a small
+    /// light's image in a mirror ball lights a surface.
+    pub caustics: bool,
 }
 
 impl Default for Options {
@@ -210,6 +216,7 @@ impl Default for Options {
             max_depth: 32768,
             skip: Skip::ALL,
             highlights: true,
+            caustics: true,
         }
     }
 }

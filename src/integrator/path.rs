@@ -38,6 +38,8 @@ use super::split::{Branch, split_at_glass};
 use super::{Options, Strategy, power_heuristic};
 use crate::analysis::Listed;
 use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3};
+#[cfg(feature = "highlight")]
+use crate::highlight::caustic_sample;
 use crate::material::diffuse::sample_cosine;
 use crate::material::{Bsdf, DeltaSample, Lambert, Lobe, Material, Scatter};
 use crate::math;
@@ -67,6 +69,18 @@ pub(super) fn trace<const MANY: bool, const TREE: bool>(
     }
     path.finish(stats)
 }
+
+/// [`PathState::caustic`]: no caustic pair applies.
+#[cfg(feature = "highlight")]
+const CAUSTIC_NONE: u16 = u16::MAX;
+/// [`PathState::caustic`]: the path left its first non-delta vertex, where
+/// the caustics were sampled.
+#[cfg(feature = "highlight")]
+const CAUSTIC_ARMED: u16 = u16::MAX - 1;
+/// The stratified pair of a first non-delta vertex's caustic sample (after
+/// the film's, the bounce's, the light's and the lens's).
+#[cfg(feature = "highlight")]
+const CAUSTIC_PAIR: u32 = 4;
 
 /// What the last vertex of a path was. Emitters get full weight after the
 /// camera (the eye is a delta) and after mirror or glass (`Delta` and up);
@@ -160,6 +174,12 @@ struct PathState<'a> {
     /// split, or met a non-delta vertex.
     #[cfg(feature = "glass")]
     no_split: bool,
+    /// Where the path stands toward a caustic pair ([`crate::highlight`]):
+    /// [`CAUSTIC_ARMED`] right after a first non-delta vertex that sampled
+    /// the caustics, then the scene index of the mirror sphere if the next
+    /// vertex is one, else [`CAUSTIC_NONE`].
+    #[cfg(feature = "highlight")]
+    caustic: u16,
     /// The other branch of a path split at its first glass vertex (see
     /// [`split_at_glass`]), traced after this one ends.
     #[cfg(feature = "glass")]
@@ -197,6 +217,8 @@ impl<'a> PathState<'a> {
             depth: 0,
             bounces: 0,
             shadows: 0,
+            #[cfg(feature = "highlight")]
+            caustic: CAUSTIC_NONE,
             #[cfg(feature = "glass")]
             no_split: false,
             #[cfg(feature = "glass")]
@@ -294,8 +316,19 @@ impl<'a> PathState<'a> {
         // left to it
         #[cfg(feature = "highlight")]
         if self.depth == 1
+            && opts.highlights
             && let Some(h) = ctx.highlights
             && h.covers(self.from, hit.object)
+        {
+            return;
+        }
+        // a light seen in a mirror from the first non-delta vertex, whose
+        // caustic the sample through the mirror took there: left to it
+        #[cfg(feature = "highlight")]
+        if self.caustic < CAUSTIC_ARMED
+            && let Some(h) = ctx.highlights
+            && let Some(x) = self.prev_point()
+            && h.covers_caustic(ctx.scene, x, usize::from(self.caustic), hit.object)
         {
             return;
         }
@@ -356,6 +389,8 @@ impl<'a> PathState<'a> {
         opts: &Options,
     ) -> bool {
         self.forbid_split();
+        #[cfg(feature = "highlight")]
+        let first = !self.scattered;
         self.scattered = true;
         let at = Vertex {
             hit,
@@ -369,6 +404,8 @@ impl<'a> PathState<'a> {
         };
         let (weight_sum, light_omc) =
             self.direct_light::<MANY, TREE, B>(ctx, &at, &lobe, stream, opts);
+        #[cfg(feature = "highlight")]
+        self.caustic(ctx, &at, &lobe, first, stream, opts);
         let Some((dir, pi_pdf)) = self.bsdf_sample(&at, &lobe, stream, opts) else {
             return false;
         };
@@ -383,6 +420,73 @@ impl<'a> PathState<'a> {
         self.last = Last::NonDelta;
         self.ray = hit.spawn_on(at.n, dir);
         true
+    }
+
+    /// The caustics at a path's first non-delta vertex: `∫ L_e f_r cos θ dω`
+    /// over the directions that meet a light after one reflection in a
+    /// mirror sphere (pairs of [`crate::highlight::Highlights::caustics`]),
+    /// by one sample through a mirror ([`caustic_sample`]). The emission
+    /// that the BSDF sample finds along such a path is then left out
+    /// ([`PathState::emission`]): the two partition the paths, so the sum
+    /// stays unbiased, and the sample finds what the BSDF sample finds only
+    /// by the chance of hitting the light's tiny image in the mirror.
+    #[cfg(feature = "highlight")]
+    #[inline(always)]
+    fn caustic<B: Lobe>(
+        &mut self,
+        ctx: &Ctx<'_, '_>,
+        at: &Vertex<'_>,
+        lobe: &B,
+        first: bool,
+        stream: &mut SampleStream<'_>,
+        opts: &Options,
+    ) {
+        self.caustic = CAUSTIC_NONE;
+        if !first || !opts.caustics {
+            return;
+        }
+        let Some(pairs) = ctx.highlights.map(|h| h.caustics()) else {
+            return;
+        };
+        if pairs.is_empty() {
+            return;
+        }
+        self.caustic = CAUSTIC_ARMED;
+        let u = if self.last == Last::Eye {
+            stream.stratified_2d(CAUSTIC_PAIR)
+        } else {
+            stream.next_2d()
+        };
+        let u0 = stream.next_f32();
+        // sampled at a share of the vertices, weighted by its inverse (the
+        // BSDF sample's hits of the same paths are left out at every
+        // vertex): unbiased, at a fraction of the cost
+        let q = crate::highlight::CAUSTIC_SHARE;
+        if u0 >= q {
+            return;
+        }
+        if let Some(cs) =
+            caustic_sample(ctx.scene, pairs, at.hit, at.n, u0 / q, u, &mut self.shadows)
+        {
+            let cos_i = at.n.dot(cs.wi);
+            let (s, pi_pdf) = lobe.eval(at.wo, at.n, cs.wi, cos_i);
+            // f cos θ = tint · s · pdf
+            self.add(self.thr * lobe.tint() * cs.value * (s * pi_pdf * (math::INV_PI / q)));
+        }
+    }
+
+    /// The point of the last non-delta vertex, once there is one.
+    #[cfg(feature = "highlight")]
+    #[inline(always)]
+    fn prev_point(&self) -> Option<Vec3> {
+        #[cfg(feature = "metal")]
+        {
+            self.prev.map(|p| p.point)
+        }
+        #[cfg(not(feature = "metal"))]
+        {
+            Some(self.prev.point)
+        }
     }
 
     /// Next-event estimation at a non-delta vertex: `∫ L_e f_r cos θ dω`
@@ -614,6 +718,19 @@ impl<'a> PathState<'a> {
         stream: &mut SampleStream<'_>,
         opts: &Options,
     ) -> bool {
+        #[cfg(feature = "highlight")]
+        {
+            self.caustic = match hit.object.as_sphere() {
+                Some(i)
+                    if self.caustic == CAUSTIC_ARMED
+                        && matches!(mat, Material::Mirror(_))
+                        && i < usize::from(CAUSTIC_ARMED) =>
+                {
+                    i as u16
+                }
+                _ => CAUSTIC_NONE,
+            };
+        }
         let ds = self.split(mat, hit, ds);
         self.thr *= ds.weight;
         self.rr_scale /= ds.scale;
@@ -711,6 +828,10 @@ impl<'a> PathState<'a> {
             self.last = Last::Eye;
             // a path splits only before its first non-delta vertex
             self.scattered = false;
+            #[cfg(feature = "highlight")]
+            {
+                self.caustic = CAUSTIC_NONE;
+            }
             self.bounces += 1;
             return true;
         }
