@@ -45,20 +45,6 @@ pub const CAPACITY: usize = 32;
 /// Largest sine of the half-angle of a pair's direction cone.
 pub const SIN_MAX: f32 = 0.25;
 
-/// Most (mirror, light) caustic pairs a render samples through the mirror;
-/// further pairs are left to the path tracer's BSDF samples.
-pub const CAUSTICS: usize = 128;
-
-/// The smallest sine of the half-angle a mirror subtends at a point for
-/// its caustic to be sampled there ([`Caustic::weight_at`]): farther mirrors
-/// are left to the BSDF sample, whose chance of meeting the light in them
-/// falls as the mirror's solid angle.
-pub const CAUSTIC_SIN_MIN: f32 = 0.05;
-
-/// The share of first non-delta vertices that sample the caustics (their
-/// estimate weighted by its inverse).
-pub const CAUSTIC_SHARE: f32 = 0.1;
-
 /// Most pairs whose film rectangles hold one pixel that a pixel keeps in
 /// its own list; a pixel in more tests every pair per sample.
 pub const PIXEL_PAIRS: usize = 8;
@@ -84,37 +70,11 @@ impl Highlight {
     }
 }
 
-/// A (mirror sphere, light sphere) pair whose light reaches diffuse and
-/// glossy points by one reflection in the mirror: a caustic, which the
-/// path tracer's first non-delta vertex samples through the mirror
-/// ([`caustic_sample`]) instead of finding it by its BSDF sample.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Caustic {
-    /// The mirror's centre (kept here: the pairs are scanned at every
-    /// first non-delta vertex).
-    pub center: Vec3,
-    /// The mirror's squared radius.
-    pub r2: f32,
-    /// The squared distance within which the caustic is sampled: `r2` over
-    /// [`CAUSTIC_SIN_MIN`]².
-    pub reach2: f32,
-    /// Scene index of the mirror sphere.
-    pub mirror: u16,
-    /// Scene index of the light sphere.
-    pub light: u16,
-    /// The pair's selection weight at unit solid angle of the mirror: the
-    /// luminances of the tint and of `L_e` times the light's solid angle
-    /// seen from the mirror's centre.
-    pub weight: f32,
-}
-
-/// A render's pairs, ordered by their first row, and its caustic pairs.
+/// A render's pairs, ordered by their first row.
 #[derive(Clone, Copy, Debug)]
 pub struct Highlights {
     list: [Highlight; CAPACITY],
     len: usize,
-    caustics: [Caustic; CAUSTICS],
-    caustic_len: usize,
 }
 
 impl Highlights {
@@ -126,23 +86,12 @@ impl Highlights {
             pixels: [0; 4],
         }; CAPACITY],
         len: 0,
-        caustics: [Caustic {
-            center: Vec3::ZERO,
-            r2: 0.0,
-            reach2: 0.0,
-            mirror: 0,
-            light: 0,
-            weight: 0.0,
-        }; CAUSTICS],
-        caustic_len: 0,
     };
 
-    /// The pairs of `scene` seen by `camera` (none for a lens camera), and
-    /// the scene's caustic pairs (with any camera).
+    /// The pairs of `scene` seen by `camera` (none for a lens camera).
     #[inline(never)]
     pub fn new(scene: &SceneView<'_>, camera: &Camera) -> Self {
         let mut out = Self::NONE;
-        out.find_caustics(scene);
         if camera.has_lens() {
             return out;
         }
@@ -159,7 +108,8 @@ impl Highlights {
                     continue;
                 };
                 let d = (l.center - m.center).length();
-                if !narrow_pair(m, l, d) || out.len >= CAPACITY {
+                let reach = l.radius + m.radius;
+                if !(l.radius >= m.radius && reach <= SIN_MAX * d) || out.len >= CAPACITY {
                     continue;
                 }
                 // a pair whose image is not bounded that way, or lies
@@ -197,80 +147,14 @@ impl Highlights {
         out
     }
 
-    /// The (mirror, light) pairs whose caustics are sampled through the
-    /// mirror: the pairs of [`narrow_pair`], in scene order.
-    fn find_caustics(&mut self, scene: &SceneView<'_>) {
-        for (mi, m) in scene.spheres.iter().enumerate() {
-            let Some(Material::Mirror(tint)) = scene.materials.get(m.material as usize) else {
-                continue;
-            };
-            for &li in scene.emitters {
-                let Some(l) = scene.spheres.get(li as usize) else {
-                    continue;
-                };
-                let Some(le) = scene
-                    .materials
-                    .get(l.material as usize)
-                    .and_then(|x| x.emission())
-                else {
-                    continue;
-                };
-                let d2 = (l.center - m.center).length_squared();
-                if !narrow_pair(m, l, math::sqrt(d2)) {
-                    continue;
-                }
-                let weight = tint.luminance() * le.luminance() * (l.radius * l.radius / d2);
-                let Some(slot) = self.caustics.get_mut(self.caustic_len) else {
-                    return;
-                };
-                let r2 = m.radius * m.radius;
-                *slot = Caustic {
-                    center: m.center,
-                    r2,
-                    reach2: r2 * (1.0 / (CAUSTIC_SIN_MIN * CAUSTIC_SIN_MIN)),
-                    mirror: mi as u16,
-                    light: li,
-                    weight,
-                };
-                self.caustic_len += 1;
-            }
-        }
-    }
-
     /// The pairs.
     pub fn as_slice(&self) -> &[Highlight] {
         self.list.get(..self.len).unwrap_or(&[])
     }
 
-    /// The caustic pairs.
-    pub fn caustics(&self) -> &[Caustic] {
-        self.caustics.get(..self.caustic_len).unwrap_or(&[])
-    }
-
-    /// Whether there are no pairs of either kind.
+    /// Whether there are none.
     pub fn is_empty(&self) -> bool {
-        self.len == 0 && self.caustic_len == 0
-    }
-
-    /// Whether the emission of `light` that a path meets after its first
-    /// non-delta vertex, at `x`, and then one reflection in the mirror
-    /// `mirror` is sampled by [`caustic_sample`] at `x` (the path tracer
-    /// then leaves it out).
-    #[inline]
-    pub fn covers_caustic(
-        &self,
-        scene: &SceneView<'_>,
-        x: Vec3,
-        mirror: usize,
-        light: ObjectId,
-    ) -> bool {
-        let Some(l) = light.as_sphere() else {
-            return false;
-        };
-        let _ = scene;
-        self.caustics().iter().any(|c| {
-            usize::from(c.mirror) == mirror && usize::from(c.light) == l && c.weight_at(x) > 0.0
-        })
+        self.len == 0
     }
 
     /// Whether the emission of `light` seen by a camera ray right after the
@@ -348,144 +232,6 @@ impl PixelHighlights {
             }
         }
     }
-}
-
-/// Whether the light `l` seen from the mirror `m` (centres `d` apart) is at
-/// least as large as the mirror, so that a direction sampled in the pair's
-/// cone meets the light with probability at least a quarter, and its cone
-/// is narrow (sine of the half-angle at most [`SIN_MAX`]).
-fn narrow_pair(m: &Sphere, l: &Sphere, d: f32) -> bool {
-    l.radius >= m.radius && l.radius + m.radius <= SIN_MAX * d
-}
-
-impl Caustic {
-    /// The pair's selection weight at `x`: its weight times the solid-angle
-    /// factor `(r / d)²` of the mirror seen from `x`, where the sine of the
-    /// mirror's half-angle there is at least [`CAUSTIC_SIN_MIN`]; else 0
-    /// (too far, or `x` inside): the caustic is not sampled there.
-    #[inline(always)]
-    pub fn weight_at(&self, x: Vec3) -> f32 {
-        let d2 = (self.center - x).length_squared();
-        if d2 > self.r2 && d2 <= self.reach2 {
-            self.weight * self.r2 / d2
-        } else {
-            0.0
-        }
-    }
-}
-
-/// A sample of the light that reaches `x` by one reflection in a mirror
-/// sphere, for the caustic pairs `pairs`.
-#[derive(Clone, Copy, Debug)]
-pub struct CausticSample {
-    /// Unit direction from `x` to the mirror point.
-    pub wi: Vec3,
-    /// `tint · L_e / pdf(wi)`: the radiance arriving along `wi`, over the
-    /// sample's solid-angle density at `x`.
-    pub value: Color,
-}
-
-/// Samples the light of the caustic pairs that reaches `x` (shading normal
-/// `n`) by one reflection: a pair chosen with probability proportional to
-/// its weight times the mirror's solid angle at `x` among the pairs of
-/// [`Caustic::weight_at`] (from `u0`), a direction `ω` uniform in the pair's
-/// cone (from `u`), the mirror point that reflects the ray from `x` into
-/// `ω` ([`mirror_point`]), and its density at `x`, `p_k p(ω) |dω/dω_x|`.
-/// `None` (zero) when no pair applies, `ω` has no visible point, or the
-/// ray from `x` does not meet the mirror and then the light first. The
-/// rays it traces are counted in `rays`.
-#[inline(never)]
-pub fn caustic_sample(
-    scene: &SceneView<'_>,
-    pairs: &[Caustic],
-    x: &crate::geometry::Hit,
-    n: Vec3,
-    u0: f32,
-    u: [f32; 2],
-    rays: &mut u32,
-) -> Option<CausticSample> {
-    // one pass, one number: the running choice keeps pair k with
-    // probability w_k / (sum so far), and u0 rescaled stays uniform
-    let mut total = 0.0f32;
-    let mut chosen: Option<(&Caustic, f32)> = None;
-    let mut v = u0;
-    for c in pairs {
-        let w = c.weight_at(x.point);
-        if !(w > 0.0) {
-            continue;
-        }
-        total += w;
-        let keep = w / total;
-        if v < keep {
-            chosen = Some((c, w));
-            v /= keep;
-        } else {
-            v = (v - keep) / (1.0 - keep);
-        }
-        v = math::min(v, 0.999_999_94);
-    }
-    let (c, w) = chosen?;
-    let p_pair = w / total;
-    let m = scene.spheres.get(usize::from(c.mirror))?;
-    let l = scene.spheres.get(usize::from(c.light))?;
-    let Some(Material::Mirror(tint)) = scene.materials.get(m.material as usize) else {
-        return None;
-    };
-    let le = scene.materials.get(l.material as usize)?.emission()?;
-    let reach = l.radius + m.radius;
-    let cone = light::sample_cone(m.center, l.center, reach * reach, u[0], u[1], false)?;
-    let nh = mirror_point(x.point, m.center, m.radius, cone.dir)?;
-    let p = m.center + nh * m.radius;
-    let to_p = p - x.point;
-    let dist = to_p.length();
-    let wi = to_p * (1.0 / dist);
-    let nc = nh.dot(wi);
-    if !(n.dot(wi) > 0.0 && nc < 0.0) {
-        return None;
-    }
-    // ω from the mirror point must meet the light (the cone holds every
-    // direction that can, from any point of the mirror)
-    let w_out = cone.dir;
-    let oc = p - l.center;
-    let b = oc.dot(w_out);
-    let disc = b * b - (oc.length_squared() - l.radius * l.radius);
-    if !(disc > 0.0) {
-        return None;
-    }
-    let t_light = -b - math::sqrt(disc);
-    if !(t_light > 0.0) {
-        return None;
-    }
-    // x to the mirror point, and the mirror point to the light, unblocked
-    // (every object tested: neither is a shadow ray of the analysis)
-    let mirror = ObjectId::sphere(usize::from(c.mirror));
-    *rays += 1;
-    if scene.occluded_by_any(&x.spawn_on(n, wi), dist, x.object, mirror) {
-        return None;
-    }
-    *rays += 1;
-    let light = ObjectId::sphere(usize::from(c.light));
-    if scene.occluded_by_any(&crate::geometry::Ray::new(p, w_out), t_light, mirror, light) {
-        return None;
-    }
-    // |dω/dω_x|: a unit turn `a` of the ray from x moves its point on the
-    // sphere (along the ray's new direction to the tangent plane) and so
-    // the normal (dP / r); the reflection moves with both
-    let (a1, a2) = wi.basis();
-    let dw = |a: Vec3| {
-        let dp = (a - wi * (nh.dot(a) / nc)) * dist;
-        let dn = dp * (1.0 / m.radius);
-        a - (nh * (a.dot(nh) + wi.dot(dn)) + dn * nc) * 2.0
-    };
-    let jac = math::abs(dw(a1).cross(dw(a2)).dot(w_out));
-    let pdf = p_pair * cone.pdf * jac;
-    if !(pdf > 0.0) {
-        return None;
-    }
-    Some(CausticSample {
-        wi,
-        value: *tint * le * (1.0 / pdf),
-    })
 }
 
 /// Directions sampled on the rim of a pair's cone to bound its image.

@@ -28,8 +28,9 @@
 //! (what can be wrong with a scene, and the value checks), [`light`],
 //! [`material`], [`analysis`] (work a scene never needs), [`scene`],
 //! [`parse`], [`stats`] (work counters), `highlight` (lights seen in mirror
-//! balls, sampled from the light's side; feature `highlight`),
-//! [`integrator`], [`film`], [`render`], [`budget`] (fixed budgets,
+//! balls, sampled from the light's side; feature `highlight`), `caustic`
+//! (the light reaching a surface through a mirror or glass ball, sampled
+//! through the ball; feature `highlight`), [`integrator`], [`film`], [`render`], [`budget`] (fixed budgets,
 //! progressive and adaptive), [`multicore`] (one budgeted render shared
 //! between cores; its atomic work queues on targets with atomic
 //! read-modify-write), [`denoise`] (the streaming denoiser: guided filters
@@ -51,6 +52,8 @@
 pub mod analysis;
 pub mod budget;
 pub mod camera;
+#[cfg(feature = "highlight")]
+pub mod caustic;
 pub mod demo;
 pub mod denoise;
 pub mod error;

@@ -66,6 +66,10 @@ pub struct Renderer<'a> {
     /// light's side (used when the options allow: [`Renderer::highlights_on`]).
     #[cfg(feature = "highlight")]
     highlights: Highlights,
+    /// The spheres whose caustics can be sampled through them (used when
+    /// the options allow: [`Renderer::caustics_on`]).
+    #[cfg(feature = "highlight")]
+    caustics: crate::caustic::Spheres,
 }
 
 /// What all samples of one pixel share: its sampler, and the highlight
@@ -101,6 +105,8 @@ impl<'a> Renderer<'a> {
             plan: PathPlan::new(&view, &options),
             #[cfg(feature = "highlight")]
             highlights: Highlights::new(&view, &camera),
+            #[cfg(feature = "highlight")]
+            caustics: crate::caustic::Spheres::new(&view),
         })
     }
 
@@ -164,7 +170,6 @@ impl<'a> Renderer<'a> {
             #[cfg(feature = "highlight")]
             highlights: self
                 .highlights_on()
-                .filter(|_| self.options.highlights)
                 .map_or(PixelHighlights::NONE, |h| h.at(x, y)),
         }
     }
@@ -176,17 +181,29 @@ impl<'a> Renderer<'a> {
         &self.highlights
     }
 
-    /// The pairs this render samples from the light's side or through the
-    /// mirror: none when both [`Options::highlights`] and
-    /// [`Options::caustics`] are off, or when paths end before they could
-    /// meet a light after a mirror. (Each estimator checks its own switch.)
+    /// The pairs this render samples from the light's side: none when
+    /// [`Options::highlights`] is off, or when paths end before they could
+    /// meet a light after a mirror.
     #[cfg(feature = "highlight")]
     #[inline(always)]
     fn highlights_on(&self) -> Option<&Highlights> {
-        ((self.options.highlights || self.options.caustics)
-            && self.options.max_depth >= 2
-            && !self.highlights.is_empty())
-        .then_some(&self.highlights)
+        (self.options.highlights && self.options.max_depth >= 2 && !self.highlights.is_empty())
+            .then_some(&self.highlights)
+    }
+
+    /// The spheres whose caustics this render samples through them
+    /// ([`crate::caustic`]): none when [`Options::caustics`] is off, or
+    /// when paths end before they could meet a light through a sphere.
+    #[cfg(feature = "highlight")]
+    #[inline(always)]
+    fn caustics_on(&self) -> &[u16] {
+        // (four bounces reach a light through glass from the first
+        // non-delta vertex: below that the path tracer could not)
+        if self.options.caustics && self.options.max_depth >= 4 {
+            self.caustics.as_slice()
+        } else {
+            &[]
+        }
     }
 
     /// How many (mirror, light) pairs this render samples from the light's
@@ -194,9 +211,7 @@ impl<'a> Renderer<'a> {
     pub fn highlight_pairs(&self) -> usize {
         #[cfg(feature = "highlight")]
         {
-            self.highlights_on()
-                .filter(|_| self.options.highlights)
-                .map_or(0, |h| h.as_slice().len())
+            self.highlights_on().map_or(0, |h| h.as_slice().len())
         }
         #[cfg(not(feature = "highlight"))]
         {
@@ -204,14 +219,13 @@ impl<'a> Renderer<'a> {
         }
     }
 
-    /// How many (mirror, light) pairs this render samples the caustics of
-    /// through the mirror (0 in a build without the `highlight` feature).
-    pub fn caustic_pairs(&self) -> usize {
+    /// How many mirror and glass spheres this render samples the caustics
+    /// of through the sphere (0 in a build without the `highlight`
+    /// feature).
+    pub fn caustic_spheres(&self) -> usize {
         #[cfg(feature = "highlight")]
         {
-            self.highlights_on()
-                .filter(|_| self.options.caustics)
-                .map_or(0, |h| h.caustics().len())
+            self.caustics_on().len()
         }
         #[cfg(not(feature = "highlight"))]
         {
@@ -276,6 +290,8 @@ impl<'a> Renderer<'a> {
             &self.plan,
             #[cfg(feature = "highlight")]
             self.highlights_on(),
+            #[cfg(feature = "highlight")]
+            self.caustics_on(),
             ray,
             &mut s,
             &self.options,

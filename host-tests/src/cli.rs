@@ -492,8 +492,8 @@ fn cmd_render(a: RenderArgs) -> Result<ExitCode, String> {
             "bvh_depth": if job.options.skip.bvh { scene.bvh().depth() } else { 0 },
             "highlight_pairs": micropt::Renderer::new(&scene, width, height)
                 .map_or(0, |r| r.options(job.options).highlight_pairs()),
-            "caustic_pairs": micropt::Renderer::new(&scene, width, height)
-                .map_or(0, |r| r.options(job.options).caustic_pairs()),
+            "caustic_spheres": micropt::Renderer::new(&scene, width, height)
+                .map_or(0, |r| r.options(job.options).caustic_spheres()),
             "threads": out.threads,
             "rays_per_second": s.rays() as f64 / out.seconds.max(1e-9),
         });

@@ -16,7 +16,7 @@ const MAX_LINES: usize = 1000;
 
 /// The core's top-level modules, bottom up: each may import only those
 /// before it (the order of docs/architecture.md and the crate docs).
-const LAYERS: [&str; 19] = [
+const LAYERS: [&str; 20] = [
     "math",
     "sampler",
     "geometry",
@@ -29,6 +29,7 @@ const LAYERS: [&str; 19] = [
     "parse",
     "stats",
     "highlight",
+    "caustic",
     "integrator",
     "film",
     "render",

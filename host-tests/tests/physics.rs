@@ -343,8 +343,8 @@ fn caustic_sampling_through_a_mirror_estimates_what_bsdf_sampling_finds() {
         caustics: false,
         ..Options::default()
     });
-    assert_eq!(on.caustic_pairs(), 1, "one (mirror, light) pair");
-    assert_eq!(off.caustic_pairs(), 0);
+    assert_eq!(on.caustic_spheres(), 1, "one mirror with a light");
+    assert_eq!(off.caustic_spheres(), 0);
     let hit = 40.0;
     let mut stats = Stats::default();
     let (mut total_on, mut total_off, mut hits_all, mut var_on) = (0.0f64, 0.0f64, 0.0f64, 0.0);
@@ -387,6 +387,88 @@ fn caustic_sampling_through_a_mirror_estimates_what_bsdf_sampling_finds() {
     assert!(
         (total_on - total_off).abs() <= 4.0 * sigma,
         "in total: through the mirror {total_on}, BSDF {total_off} ± {sigma}"
+    );
+    assert_eq!(stats.nonfinite, 0);
+}
+
+/// Caustics through a glass ball, through the path tracer: the ground in
+/// the umbra of a glass ball under a high sun is lit only through the ball,
+/// by the diverging beam beyond its focus (`|dω/dω_x|` about 3, where the
+/// sample through the ball takes the paths). Rendered with the
+/// caustics sampled through the ball at the first non-delta vertex (`on`:
+/// the sample, and the BSDF sample's hits of the paths it does not take)
+/// and by BSDF sampling alone (`off`), the umbra's pixels (those a black
+/// ball in the glass ball's place leaves black) agree within 4 standard
+/// errors of both means (from the samples' own variance), each and in
+/// total (13.0 against 13.1 ± 0.19 over 92 pixels). Sabotage: the path
+/// tracer keeping the BSDF sample's hits of the paths the sample takes
+/// (counting them twice) fails it (26.2).
+#[test]
+fn caustic_sampling_through_glass_estimates_what_bsdf_sampling_finds() {
+    let scene_of = |ball: &str| {
+        let text = format!(
+            "camera -2 1.2 3  -2 0 0  0 1 0  20\nresolution 16 16\n\
+             material ground diffuse 0.5 0.5 0.5\nmaterial ball {ball}\n\
+             material sun light 100 100 100\nplane 0 0 0  0 1 0  ground\n\
+             sphere 0 3.5 0  1  ball\nsphere 25 43.3 0  5  sun\n"
+        );
+        micropt_host::render::parse_host(&text).unwrap()
+    };
+    let (glass, black) = (scene_of("glass 1.5"), scene_of("diffuse 0 0 0"));
+    let on = Renderer::new(&*glass, 16, 16)
+        .unwrap()
+        .seed(7)
+        .options(Options {
+            highlights: false,
+            ..Options::default()
+        });
+    let off = on.options(Options {
+        highlights: false,
+        caustics: false,
+        ..Options::default()
+    });
+    let shadow = Renderer::new(&*black, 16, 16).unwrap();
+    assert_eq!(on.caustic_spheres(), 1, "one glass sphere with a light");
+    let mut stats = Stats::default();
+    let (mut total_on, mut total_off, mut var, mut umbra) = (0.0f64, 0.0f64, 0.0f64, 0);
+    for y in 0..16 {
+        for x in 0..16 {
+            let mean = |r: &Renderer<'_>, n: u32, stats: &mut Stats| {
+                let pixel = r.pixel(x, y);
+                let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+                for i in 0..n {
+                    let v = f64::from(r.sample_in(&pixel, x, y, i, stats).y);
+                    sum += v;
+                    sum2 += v * v;
+                }
+                let m = sum / f64::from(n);
+                (m, (sum2 / f64::from(n) - m * m).max(0.0) / f64::from(n))
+            };
+            if mean(&shadow, 256, &mut stats).0 != 0.0 {
+                continue;
+            }
+            umbra += 1;
+            let (a, va) = mean(&on, 1 << 12, &mut stats);
+            let (b, vb) = mean(&off, 1 << 15, &mut stats);
+            let sigma = (va + vb).sqrt();
+            assert!(
+                (a - b).abs() <= 4.0 * sigma,
+                "({x}, {y}): through the glass {a}, BSDF {b} ± {sigma}"
+            );
+            total_on += a;
+            total_off += b;
+            var += va + vb;
+        }
+    }
+    let sigma = var.sqrt();
+    assert!(umbra >= 10, "{umbra} pixels in the umbra");
+    assert!(
+        total_off > 20.0 * sigma,
+        "the umbra is lit through the ball"
+    );
+    assert!(
+        (total_on - total_off).abs() <= 4.0 * sigma,
+        "in total: through the glass {total_on}, BSDF {total_off} ± {sigma}"
     );
     assert_eq!(stats.nonfinite, 0);
 }

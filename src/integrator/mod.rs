@@ -195,11 +195,11 @@ pub struct Options {
     /// not only by film position: the same expectation, less noise where
     /// such an image is a fraction of a pixel.
     pub highlights: bool,
-    /// Sample the light that reaches a path's first non-delta vertex by
-    /// one reflection in a mirror sphere through the mirror
-    /// ([`crate::highlight::caustic_sample`]; feature `highlight`), not only
-    /// by the BSDF sample: the same expectation, less noise where a small
-    /// light's image in a mirror ball lights a surface.
+    /// Sample the light that reaches a path's first non-delta vertex
+    /// through one mirror or glass sphere by a sample through the sphere
+    /// ([`crate::caustic`]; feature `highlight`), not only by the BSDF
+    /// sample: the same expectation, less noise where a small light's
+    /// image in a mirror or glass ball lights a surface.
     pub caustics: bool,
 }
 
@@ -280,6 +280,8 @@ pub fn radiance(
         &PathPlan::new(scene, opts),
         #[cfg(feature = "highlight")]
         None,
+        #[cfg(feature = "highlight")]
+        &[],
         ray,
         stream,
         opts,
@@ -293,10 +295,12 @@ pub fn radiance(
 /// meets right after a mirror for the pairs of `highlights`; the estimate
 /// with its direct part ([`PathSum`]).
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn radiance_planned(
     scene: &SceneView<'_>,
     plan: &PathPlan<'_>,
     #[cfg(feature = "highlight")] highlights: Option<&crate::highlight::Highlights>,
+    #[cfg(feature = "highlight")] caustics: &[u16],
     ray: Ray,
     stream: &mut SampleStream<'_>,
     opts: &Options,
@@ -307,6 +311,8 @@ pub(crate) fn radiance_planned(
         plan,
         #[cfg(feature = "highlight")]
         highlights,
+        #[cfg(feature = "highlight")]
+        caustics,
     };
     // the queries are compiled with and without the tree, so that a scene
     // without one (a firmware for a small scene has no tree code at all)

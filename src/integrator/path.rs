@@ -37,9 +37,9 @@ use super::plan::{Ctx, OneLight, PrevVertex, window_of};
 use super::split::{Branch, split_at_glass};
 use super::{Options, Strategy, power_heuristic};
 use crate::analysis::Listed;
-use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3};
 #[cfg(feature = "highlight")]
-use crate::highlight::caustic_sample;
+use crate::caustic::{self, CausticSample, ROOTS};
+use crate::geometry::{Color, Hit, ObjectId, Ray, Vec3};
 use crate::material::diffuse::sample_cosine;
 use crate::material::{Bsdf, DeltaSample, Lambert, Lobe, Material, Scatter};
 use crate::math;
@@ -77,10 +77,10 @@ const CAUSTIC_NONE: u16 = u16::MAX;
 /// the caustics were sampled.
 #[cfg(feature = "highlight")]
 const CAUSTIC_ARMED: u16 = u16::MAX - 1;
-/// The stratified pair of a first non-delta vertex's caustic sample (after
-/// the film's, the bounce's, the light's and the lens's).
+/// [`PathState::caustic`]: this bit and a glass sphere's index: the path
+/// has refracted into it from the first non-delta vertex.
 #[cfg(feature = "highlight")]
-const CAUSTIC_PAIR: u32 = 4;
+const CAUSTIC_INSIDE: u16 = 0x8000;
 
 /// What the last vertex of a path was. Emitters get full weight after the
 /// camera (the eye is a delta) and after mirror or glass (`Delta` and up);
@@ -128,9 +128,10 @@ pub struct PathSum {
     pub total: Color,
     /// The part of `total` that emitters (and the background) give straight
     /// to the camera or through mirrors and glass only: a light seen
-    /// directly, its image in a mirror ball or through a glass ball. A
-    /// denoiser keeps it out of its filter (it is sharp, and most of it has
-    /// no noise); callers that do not split the estimate ignore it, and the
+    /// directly, its image in a mirror ball or through a glass ball; and
+    /// the caustics sampled through a ball ([`crate::caustic`]). A denoiser
+    /// keeps it out of its filter (it is sharp, and most of it has little
+    /// noise); callers that do not split the estimate ignore it, and the
     /// compiler drops its arithmetic.
     pub direct: Color,
 }
@@ -174,10 +175,11 @@ struct PathState<'a> {
     /// split, or met a non-delta vertex.
     #[cfg(feature = "glass")]
     no_split: bool,
-    /// Where the path stands toward a caustic pair ([`crate::highlight`]):
+    /// Where the path stands toward a caustic sphere ([`crate::caustic`]):
     /// [`CAUSTIC_ARMED`] right after a first non-delta vertex that sampled
-    /// the caustics, then the scene index of the mirror sphere if the next
-    /// vertex is one, else [`CAUSTIC_NONE`].
+    /// the caustics; then a sphere's scene index once the path has
+    /// reflected in that mirror, or refracted into ([`CAUSTIC_INSIDE`]) and
+    /// out of that glass sphere; else [`CAUSTIC_NONE`].
     #[cfg(feature = "highlight")]
     caustic: u16,
     /// The other branch of a path split at its first glass vertex (see
@@ -322,13 +324,20 @@ impl<'a> PathState<'a> {
         {
             return;
         }
-        // a light seen in a mirror from the first non-delta vertex, whose
-        // caustic the sample through the mirror took there: left to it
+        // a light seen through a mirror or glass sphere from the first
+        // non-delta vertex, whose caustic the sample through the sphere
+        // took there: left to it
         #[cfg(feature = "highlight")]
-        if self.caustic < CAUSTIC_ARMED
-            && let Some(h) = ctx.highlights
+        if self.caustic < CAUSTIC_INSIDE
             && let Some(x) = self.prev_point()
-            && h.covers_caustic(ctx.scene, x, usize::from(self.caustic), hit.object)
+            && caustic::covers(
+                ctx.scene,
+                ctx.caustics,
+                x,
+                usize::from(self.caustic),
+                &self.ray,
+                hit.object,
+            )
         {
             return;
         }
@@ -405,7 +414,7 @@ impl<'a> PathState<'a> {
         let (weight_sum, light_omc) =
             self.direct_light::<MANY, TREE, B>(ctx, &at, &lobe, stream, opts);
         #[cfg(feature = "highlight")]
-        self.caustic(ctx, &at, &lobe, first, stream, opts);
+        self.caustic(ctx, &at, &lobe, first, stream);
         let Some((dir, pi_pdf)) = self.bsdf_sample(&at, &lobe, stream, opts) else {
             return false;
         };
@@ -423,13 +432,13 @@ impl<'a> PathState<'a> {
     }
 
     /// The caustics at a path's first non-delta vertex: `∫ L_e f_r cos θ dω`
-    /// over the directions that meet a light after one reflection in a
-    /// mirror sphere (pairs of [`crate::highlight::Highlights::caustics`]),
-    /// by one sample through a mirror ([`caustic_sample`]). The emission
-    /// that the BSDF sample finds along such a path is then left out
-    /// ([`PathState::emission`]): the two partition the paths, so the sum
-    /// stays unbiased, and the sample finds what the BSDF sample finds only
-    /// by the chance of hitting the light's tiny image in the mirror.
+    /// over the directions that meet a light through one mirror or glass
+    /// sphere ([`crate::caustic`]), by one sample through a sphere at a
+    /// share of the vertices. The emission that the BSDF sample finds along
+    /// such a path is then left out ([`PathState::emission`]): the two
+    /// partition the paths, so the sum stays unbiased, and the sample finds
+    /// what the BSDF sample finds only by the chance of hitting the light's
+    /// tiny image in the sphere.
     #[cfg(feature = "highlight")]
     #[inline(always)]
     fn caustic<B: Lobe>(
@@ -439,39 +448,44 @@ impl<'a> PathState<'a> {
         lobe: &B,
         first: bool,
         stream: &mut SampleStream<'_>,
-        opts: &Options,
     ) {
         self.caustic = CAUSTIC_NONE;
-        if !first || !opts.caustics {
-            return;
-        }
-        let Some(pairs) = ctx.highlights.map(|h| h.caustics()) else {
-            return;
-        };
-        if pairs.is_empty() {
+        let list = ctx.caustics;
+        if !first || list.is_empty() {
             return;
         }
         self.caustic = CAUSTIC_ARMED;
-        let u = if self.last == Last::Eye {
-            stream.stratified_2d(CAUSTIC_PAIR)
-        } else {
-            stream.next_2d()
-        };
-        let u0 = stream.next_f32();
         // sampled at a share of the vertices, weighted by its inverse (the
         // BSDF sample's hits of the same paths are left out at every
-        // vertex): unbiased, at a fraction of the cost
-        let q = crate::highlight::CAUSTIC_SHARE;
-        if u0 >= q {
+        // vertex): unbiased, at a fraction of the cost. Independent
+        // numbers: a stratified pair beyond the cached ones costs a hash
+        // per path, and this estimate has little noise to stratify
+        let u0 = stream.next_f32();
+        if u0 >= caustic::SHARE {
             return;
         }
-        if let Some(cs) =
-            caustic_sample(ctx.scene, pairs, at.hit, at.n, u0 / q, u, &mut self.shadows)
-        {
+        let u = stream.next_2d();
+        let mut out = [CausticSample::NONE; ROOTS];
+        let found = caustic::sample(
+            ctx.scene,
+            list,
+            at.hit,
+            at.n,
+            u0 * (1.0 / caustic::SHARE),
+            u,
+            &mut self.shadows,
+            &mut out,
+        );
+        for cs in out.iter().take(found) {
             let cos_i = at.n.dot(cs.wi);
             let (s, pi_pdf) = lobe.eval(at.wo, at.n, cs.wi, cos_i);
-            // f cos θ = tint · s · pdf
-            self.add(self.thr * lobe.tint() * cs.value * (s * pi_pdf * (math::INV_PI / q)));
+            // f cos θ = tint · s · pdf; kept with the direct part, out of a
+            // denoiser's filter (a caustic is sharp, and this estimate of
+            // it has little noise)
+            let c =
+                self.thr * lobe.tint() * cs.value * (s * pi_pdf * (math::INV_PI / caustic::SHARE));
+            self.l += c;
+            self.direct += c;
         }
     }
 
@@ -719,24 +733,47 @@ impl<'a> PathState<'a> {
         opts: &Options,
     ) -> bool {
         #[cfg(feature = "highlight")]
-        {
-            self.caustic = match hit.object.as_sphere() {
-                Some(i)
-                    if self.caustic == CAUSTIC_ARMED
-                        && matches!(mat, Material::Mirror(_))
-                        && i < usize::from(CAUSTIC_ARMED) =>
-                {
-                    i as u16
-                }
-                _ => CAUSTIC_NONE,
-            };
-        }
+        self.caustic_step(mat, hit, &ds);
         let ds = self.split(mat, hit, ds);
         self.thr *= ds.weight;
         self.rr_scale /= ds.scale;
         self.last = self.last.max(Last::Delta);
         self.ray = hit.spawn(ds.dir);
         self.roulette(stream, opts)
+    }
+
+    /// Where a delta vertex leaves the path toward a caustic sphere (see
+    /// [`PathState::caustic`]): a reflection in a mirror sphere right after
+    /// the first non-delta vertex, or a refraction into a glass sphere
+    /// there and then out of the same sphere, keeps the sphere's index.
+    #[cfg(feature = "highlight")]
+    #[inline(always)]
+    fn caustic_step(&mut self, mat: &Material, hit: &Hit, ds: &DeltaSample) {
+        if self.caustic == CAUSTIC_NONE {
+            return;
+        }
+        // a refraction continues to the far side of the surface
+        let refracted = !math::lt_zero(self.ray.dir.dot(hit.normal) * ds.dir.dot(hit.normal));
+        self.caustic = match (hit.object.as_sphere(), mat) {
+            (Some(i), Material::Mirror(_))
+                if self.caustic == CAUSTIC_ARMED && i < usize::from(CAUSTIC_INSIDE) =>
+            {
+                i as u16
+            }
+            (Some(i), Material::Glass(_))
+                if refracted
+                    && self.caustic == CAUSTIC_ARMED
+                    && i < usize::from(CAUSTIC_INSIDE) =>
+            {
+                i as u16 | CAUSTIC_INSIDE
+            }
+            (Some(i), Material::Glass(_))
+                if refracted && usize::from(self.caustic) == (i | usize::from(CAUSTIC_INSIDE)) =>
+            {
+                i as u16
+            }
+            _ => CAUSTIC_NONE,
+        };
     }
 
     /// The first glass vertex seen from the camera (through any mirrors and

@@ -115,6 +115,10 @@ pub(super) struct Ctx<'v, 'a> {
     /// mirror [`crate::highlight`] estimates instead.
     #[cfg(feature = "highlight")]
     pub(super) highlights: Option<&'v crate::highlight::Highlights>,
+    /// The spheres whose caustics the first non-delta vertex samples
+    /// ([`crate::caustic`]; empty when off).
+    #[cfg(feature = "highlight")]
+    pub(super) caustics: &'v [u16],
 }
 
 /// What next-event estimation needs of a scene's only light.
