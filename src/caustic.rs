@@ -67,7 +67,7 @@ pub const GLASS_JAC_MIN: f32 = 0.1;
 
 /// Most mirror and glass spheres whose caustics a render samples; further
 /// spheres are left to the path tracer's BSDF samples.
-pub const CAPACITY: usize = 128;
+pub const CAPACITY: usize = 64;
 
 /// The mirror and glass spheres of a scene with a caustic pair
 /// ([`has_pair`]), in scene order: what [`sample`] and [`covers`] take.

@@ -82,6 +82,44 @@ const CAUSTIC_ARMED: u16 = u16::MAX - 1;
 #[cfg(feature = "highlight")]
 const CAUSTIC_INSIDE: u16 = 0x8000;
 
+/// The caustic sample's paths at a first non-delta vertex: the sum of
+/// their `f cos θ · tint · L_e / (density · share)` and the rays traced.
+/// Out of line and given no field of the path's state: its frame, with
+/// room for a glass ball's three paths, is on the stack only where a
+/// vertex samples it (inlined into the path loop it overflowed a 16 KiB
+/// Cortex-M0's RAM on gloss.scene, which has no caustic sphere), and the
+/// path's state stays in registers (see the module docs).
+#[cfg(feature = "highlight")]
+#[inline(never)]
+fn caustic_paths<B: Lobe>(
+    ctx: &Ctx<'_, '_>,
+    at: &Vertex<'_>,
+    lobe: &B,
+    u0: f32,
+    u: [f32; 2],
+) -> (Color, u32) {
+    let mut out = [CausticSample::NONE; ROOTS];
+    let mut rays = 0;
+    let found = caustic::sample(
+        ctx.scene,
+        ctx.caustics,
+        at.hit,
+        at.n,
+        u0,
+        u,
+        &mut rays,
+        &mut out,
+    );
+    let mut sum = Color::ZERO;
+    for cs in out.iter().take(found) {
+        let cos_i = at.n.dot(cs.wi);
+        let (s, pi_pdf) = lobe.eval(at.wo, at.n, cs.wi, cos_i);
+        // f cos θ = tint · s · pdf
+        sum += lobe.tint() * cs.value * (s * pi_pdf * (math::INV_PI / caustic::SHARE));
+    }
+    (sum, rays)
+}
+
 /// What the last vertex of a path was. Emitters get full weight after the
 /// camera (the eye is a delta) and after mirror or glass (`Delta` and up);
 /// the first non-delta vertex, wherever mirrors and glass put it, draws its
@@ -465,28 +503,13 @@ impl<'a> PathState<'a> {
             return;
         }
         let u = stream.next_2d();
-        let mut out = [CausticSample::NONE; ROOTS];
-        let found = caustic::sample(
-            ctx.scene,
-            list,
-            at.hit,
-            at.n,
-            u0 * (1.0 / caustic::SHARE),
-            u,
-            &mut self.shadows,
-            &mut out,
-        );
-        for cs in out.iter().take(found) {
-            let cos_i = at.n.dot(cs.wi);
-            let (s, pi_pdf) = lobe.eval(at.wo, at.n, cs.wi, cos_i);
-            // f cos θ = tint · s · pdf; kept with the direct part, out of a
-            // denoiser's filter (a caustic is sharp, and this estimate of
-            // it has little noise)
-            let c =
-                self.thr * lobe.tint() * cs.value * (s * pi_pdf * (math::INV_PI / caustic::SHARE));
-            self.l += c;
-            self.direct += c;
-        }
+        let (c, rays) = caustic_paths(ctx, at, lobe, u0 * (1.0 / caustic::SHARE), u);
+        let c = self.thr * c;
+        // kept with the direct part, out of a denoiser's filter (a caustic
+        // is sharp, and this estimate of it has little noise)
+        self.l += c;
+        self.direct += c;
+        self.shadows += rays;
     }
 
     /// The point of the last non-delta vertex, once there is one.
