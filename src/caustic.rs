@@ -37,7 +37,7 @@
 //! vertex.
 
 use crate::geometry::{Color, Hit, ObjectId, Ray, Sphere, Vec3};
-use crate::highlight::{SIN_MAX, mirror_point};
+use crate::highlight::{SIN_MAX, mirror_point, reflection_jacobian};
 use crate::light;
 use crate::material::Material;
 use crate::math;
@@ -351,7 +351,8 @@ pub fn sample(
             if scene.occluded_by_any(&x.spawn_on(n, wi), dist, x.object, sphere) {
                 return 0;
             }
-            let jac = mirror_jacobian(wi, nh, nc, dist, m.radius, cone.dir);
+            let (a1, a2) = wi.basis();
+            let jac = reflection_jacobian([a1, a2], wi, nh, nc, dist, m.radius, cone.dir);
             if !(jac > 0.0) {
                 return 0;
             }
@@ -389,22 +390,6 @@ pub fn sample(
             kept
         }
     }
-}
-
-/// `|dω/dω_x|` of a mirror reflection: a unit turn `a` of the ray from `x`
-/// (unit `wi`, meeting the sphere of radius `r` at distance `dist` where
-/// the normal is `nh`, `nc = nh · wi`) moves its point on the sphere
-/// (along the ray's new direction to the tangent plane) and so the normal
-/// (`dP / r`); the reflection `w` moves with both.
-#[inline(always)]
-fn mirror_jacobian(wi: Vec3, nh: Vec3, nc: f32, dist: f32, r: f32, w: Vec3) -> f32 {
-    let (a1, a2) = wi.basis();
-    let dw = |a: Vec3| {
-        let dp = (a - wi * (nh.dot(a) / nc)) * dist;
-        let dn = dp * (1.0 / r);
-        a - (nh * (a.dot(nh) + wi.dot(dn)) + dn * nc) * 2.0
-    };
-    math::abs(dw(a1).cross(dw(a2)).dot(w))
 }
 
 /// A path from a point through a glass sphere: in along `wi`, out along the

@@ -234,6 +234,33 @@ impl PixelHighlights {
     }
 }
 
+/// `|dw₁ × dw₂ · w|` for the reflection `w` of a ray (unit `wi`) in a
+/// mirror sphere of radius `r`, met at distance `dist` where the normal is
+/// `nh` (`nc = nh · wi < 0`), as the ray turns by `a₁` and `a₂`: a turn
+/// moves the ray's point on the sphere (along the ray's new direction to
+/// the tangent plane) and so the normal (`dP / r`), and the reflection
+/// moves with both. With the camera ray's film derivatives, `|dω/dx|` (the
+/// highlight estimator); with a unit basis across `wi`, `|dω/dω_x|` (the
+/// caustics through a mirror, [`crate::caustic`]).
+#[inline(always)]
+pub fn reflection_jacobian(
+    turns: [Vec3; 2],
+    wi: Vec3,
+    nh: Vec3,
+    nc: f32,
+    dist: f32,
+    r: f32,
+    w: Vec3,
+) -> f32 {
+    let dw = |a: Vec3| {
+        let dp = (a - wi * (nh.dot(a) / nc)) * dist;
+        let dn = dp * (1.0 / r);
+        a - (nh * (a.dot(nh) + wi.dot(dn)) + dn * nc) * 2.0
+    };
+    let [a1, a2] = turns;
+    math::abs(dw(a1).cross(dw(a2)).dot(w))
+}
+
 /// Directions sampled on the rim of a pair's cone to bound its image.
 const RIM: usize = 32;
 /// cos and sin of 2π / [`RIM`].
@@ -432,20 +459,13 @@ pub fn estimate(
     if on.object != ObjectId::sphere(usize::from(p.light)) || !(w.dot(on.normal) < 0.0) {
         return None;
     }
-    // |dω/dx|: a film step moves the camera ray (a), its point on the
-    // sphere (along the ray's new direction to the tangent plane) and so
-    // the normal (dP / r); the reflection moves with both
+    // |dω/dx|: from the camera ray's derivatives on the film
     let (a1, a2) = camera.dir_derivatives(fx, fy);
     let nc = n.dot(wc);
     if !(nc < 0.0) {
         return None;
     }
-    let dw = |a: Vec3| {
-        let dp = (a - wc * (n.dot(a) / nc)) * hit.t;
-        let dn = dp * (1.0 / m.radius);
-        a - (n * (a.dot(n) + wc.dot(dn)) + dn * nc) * 2.0
-    };
-    let jac = math::abs(dw(a1).cross(dw(a2)).dot(w));
+    let jac = reflection_jacobian([a1, a2], wc, n, nc, hit.t, m.radius, w);
     if !(jac > 0.0) {
         return None;
     }

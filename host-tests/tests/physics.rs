@@ -310,6 +310,20 @@ fn highlight_sampling_estimates_what_film_sampling_finds() {
     assert_eq!(stats.nonfinite, 0);
 }
 
+/// The green channel's mean over samples `0..n` of pixel (x, y), and the
+/// variance of that mean (from the samples' own spread).
+fn pixel_mean(r: &Renderer<'_>, x: u32, y: u32, n: u32, stats: &mut Stats) -> (f64, f64) {
+    let pixel = r.pixel(x, y);
+    let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+    for i in 0..n {
+        let v = f64::from(r.sample_in(&pixel, x, y, i, stats).y);
+        sum += v;
+        sum2 += v * v;
+    }
+    let m = sum / f64::from(n);
+    (m, (sum2 / f64::from(n) - m * m).max(0.0) / f64::from(n))
+}
+
 /// Caustics through a mirror (a change of variables keeps the integral):
 /// the light that reaches a diffuse ground by one reflection in a mirror
 /// ball, sampled through the mirror at the first non-delta vertex (`on`),
@@ -350,24 +364,10 @@ fn caustic_sampling_through_a_mirror_estimates_what_bsdf_sampling_finds() {
     let (mut total_on, mut total_off, mut hits_all, mut var_on) = (0.0f64, 0.0f64, 0.0f64, 0.0);
     for y in 0..10 {
         for x in 0..10 {
-            // the mean of n samples and its standard error
-            let mean = |r: &Renderer<'_>, n: u32, stats: &mut Stats| {
-                let pixel = r.pixel(x, y);
-                let (mut sum, mut sum2) = (0.0f64, 0.0f64);
-                for i in 0..n {
-                    let v = f64::from(r.sample_in(&pixel, x, y, i, stats).y);
-                    sum += v;
-                    sum2 += v * v;
-                }
-                let m = sum / f64::from(n);
-                (
-                    m,
-                    ((sum2 / f64::from(n) - m * m).max(0.0) / f64::from(n)).sqrt(),
-                )
-            };
-            let (a, se_on) = mean(&on, 1 << 12, &mut stats);
+            let (a, var_a) = pixel_mean(&on, x, y, 1 << 12, &mut stats);
+            let se_on = var_a.sqrt();
             let n = 1 << 17;
-            let (b, _) = mean(&off, n, &mut stats);
+            let (b, _) = pixel_mean(&off, x, y, n, &mut stats);
             // the count the mirror's estimate predicts, its Poisson standard
             // error, and the on estimate's own
             let hits = a * f64::from(n) / hit;
@@ -433,23 +433,12 @@ fn caustic_sampling_through_glass_estimates_what_bsdf_sampling_finds() {
     let (mut total_on, mut total_off, mut var, mut umbra) = (0.0f64, 0.0f64, 0.0f64, 0);
     for y in 0..16 {
         for x in 0..16 {
-            let mean = |r: &Renderer<'_>, n: u32, stats: &mut Stats| {
-                let pixel = r.pixel(x, y);
-                let (mut sum, mut sum2) = (0.0f64, 0.0f64);
-                for i in 0..n {
-                    let v = f64::from(r.sample_in(&pixel, x, y, i, stats).y);
-                    sum += v;
-                    sum2 += v * v;
-                }
-                let m = sum / f64::from(n);
-                (m, (sum2 / f64::from(n) - m * m).max(0.0) / f64::from(n))
-            };
-            if mean(&shadow, 256, &mut stats).0 != 0.0 {
+            if pixel_mean(&shadow, x, y, 256, &mut stats).0 != 0.0 {
                 continue;
             }
             umbra += 1;
-            let (a, va) = mean(&on, 1 << 12, &mut stats);
-            let (b, vb) = mean(&off, 1 << 15, &mut stats);
+            let (a, va) = pixel_mean(&on, x, y, 1 << 12, &mut stats);
+            let (b, vb) = pixel_mean(&off, x, y, 1 << 15, &mut stats);
             let sigma = (va + vb).sqrt();
             assert!(
                 (a - b).abs() <= 4.0 * sigma,
