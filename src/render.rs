@@ -336,9 +336,21 @@ impl<'a> Renderer<'a> {
                 let z = mix64(key ^ mix64(u64::from(index)));
                 [to_unit(z as u32), to_unit((z >> 32) as u32)]
             };
-            if let Some(v) = highlight::estimate(&self.scene, &self.camera, p, x, y, rnd, stats) {
-                c += v;
+            // LATTICE directions a sample: the lattice's points shifted by
+            // the sample's pair (each uniform in the cone, so each term is
+            // unbiased), so that a pixel holding a sliver of the light's
+            // image counts many of its directions, not none or one
+            let mut sum = Color::ZERO;
+            for (j, step) in highlight::LATTICE_STEPS.iter().enumerate() {
+                let lu = highlight::wrap(rnd[0] + j as f32 * (1.0 / highlight::LATTICE as f32));
+                let lv = highlight::wrap(rnd[1] + step);
+                if let Some(v) =
+                    highlight::estimate(&self.scene, &self.camera, p, x, y, [lu, lv], stats)
+                {
+                    sum += v;
+                }
             }
+            c += sum * (1.0 / highlight::LATTICE as f32);
         });
         c
     }

@@ -1,0 +1,58 @@
+#!/usr/bin/env python3
+"""The denoiser's gains over seeds: relMSE and MSE of raw and denoised images.
+
+usage: python3 tools/denoise_gains.py SPP SEEDS [SCENE ...] [-- render flags...]
+
+For each scene (default: every scene with a reference in host-tests/data)
+and each seed S in 0..SEEDS: renders scenes/SCENE.scene with `micropt render
+--uniform --spp SPP --seed S` at the reference's size, once raw and once
+with `--denoise` (the same samples), and prints the means over seeds of
+relMSE = mean((x - r)^2 / (r^2 + 0.01)) and MSE = mean((x - r)^2) against
+host-tests/data/SCENE.pfm, the gains raw / denoised (of the means), and the
+worst seed's denoised / raw MSE. Env MICROPT: the binary (default
+target/release/micropt).
+"""
+import os, subprocess, sys, tempfile
+import numpy as np
+
+def read_pfm(path):
+    with open(path, 'rb') as f:
+        f.readline()
+        w, h = map(int, f.readline().split())
+        scale = float(f.readline())
+        data = np.frombuffer(f.read(), dtype='<f4' if scale < 0 else '>f4')
+    return data.reshape(h, w, 3)[::-1].astype(np.float64)
+
+def main():
+    args = sys.argv[1:]
+    extra = []
+    if '--' in args:
+        i = args.index('--')
+        args, extra = args[:i], args[i + 1:]
+    spp, seeds, scenes = int(args[0]), int(args[1]), args[2:]
+    if not scenes:
+        scenes = sorted(f[:-4] for f in os.listdir('host-tests/data') if f.endswith('.pfm') and '.' not in f[:-4])
+    exe = os.environ.get('MICROPT', 'target/release/micropt')
+    print(f'{"scene":<18} {"relMSE raw":>10} {"denoised":>10} {"gain":>6} {"MSE raw":>10} {"denoised":>10} {"gain":>6} {"worst seed":>10}')
+    with tempfile.TemporaryDirectory() as tmp:
+        for scene in scenes:
+            ref = read_pfm(f'host-tests/data/{scene}.pfm')
+            h, w, _ = ref.shape
+            rel = {False: [], True: []}
+            mse = {False: [], True: []}
+            for s in range(seeds):
+                for dn in (False, True):
+                    out = os.path.join(tmp, f'{s}{dn}.pfm')
+                    cmd = [exe, 'render', f'scenes/{scene}.scene', '--spp', str(spp), '--uniform', '--seed', str(s),
+                           '--size', f'{w}x{h}', '-o', out] + (['--denoise'] if dn else []) + extra
+                    subprocess.run(cmd, capture_output=True, check=True)
+                    x = read_pfm(out)
+                    rel[dn].append((((x - ref) ** 2) / (ref ** 2 + 0.01)).mean())
+                    mse[dn].append(((x - ref) ** 2).mean())
+            rr, rd = np.mean(rel[False]), np.mean(rel[True])
+            mr, md = np.mean(mse[False]), np.mean(mse[True])
+            worst = max(d / r for d, r in zip(mse[True], mse[False]))
+            print(f'{scene:<18} {rr:10.3e} {rd:10.3e} {rr / rd:5.2f}x {mr:10.3e} {md:10.3e} {mr / md:5.2f}x {worst:10.3f}', flush=True)
+
+if __name__ == '__main__':
+    main()
