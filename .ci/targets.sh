@@ -153,6 +153,10 @@ build_one() {
     # build (cornell.size); the other scenes with the default features
     if [ "$NAME" = cornell ]; then
         features=(--no-default-features --features "${features[1]},parser,mirror")
+    elif [ "$MACHINE_NOW" = microbit ]; then
+        # 16 KiB of RAM: the highlight list of 16 pairs and no chains (its
+        # scenes have none)
+        features=(--features "${features[1]},small-ram")
     fi
     MICROPT_FW_MACHINE="$MACHINE_NOW" MICROPT_FW_SCENE="$2" MICROPT_FW_SIZE="$SIZE" \
         MICROPT_FW_SPP="$SPP" MICROPT_FW_SEED=0 MICROPT_FW_OUT="$OUT/$TAG.board.rgb565" \

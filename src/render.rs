@@ -325,23 +325,53 @@ impl<'a> Renderer<'a> {
     fn highlights_of(&self, pixel: &Pixel, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
         let mut c = Color::ZERO;
         pixel.highlights.each(&self.highlights, x, y, |k, p| {
+            // a chain's path reaches its light after two bounces (three
+            // through a ball): not there when paths end sooner, nor does
+            // the path tracer's
+            let bounces = match p.via {
+                highlight::NO_VIA => 1,
+                v if v & highlight::VIA_INSIDE != 0 => 3,
+                _ => 2,
+            };
+            if self.options.max_depth <= bounces {
+                return;
+            }
             // the pair's own scrambled Sobol points over the pixel's
             // samples; independent numbers when the render's are (so that
             // an unstratified render is plain Monte Carlo throughout, its
             // MSE exactly 1/N)
             let key = pixel.key ^ mix64(k as u64 + 1);
-            let rnd = if self.options.stratified {
+            let mut rnd = if self.options.stratified {
                 sobol_2d(index, key)
             } else {
                 let z = mix64(key ^ mix64(u64::from(index)));
                 [to_unit(z as u32), to_unit((z >> 32) as u32)]
             };
+            // a chain's image: estimated at a share of the samples,
+            // weighted by its inverse (its first number decides, rescaled)
+            let mut weight = 1.0;
+            if p.via != highlight::NO_VIA {
+                if !(rnd[0] < highlight::CHAIN_SHARE) {
+                    return;
+                }
+                rnd[0] *= 1.0 / highlight::CHAIN_SHARE;
+                weight = 1.0 / highlight::CHAIN_SHARE;
+            }
             // LATTICE directions a sample: the lattice's points shifted by
             // the sample's pair (each uniform in the cone, so each term is
             // unbiased), so that a pixel holding a sliver of the light's
             // image counts many of its directions, not none or one
+            // an image within one pixel: every direction lands in it, and
+            // one a sample serves
+            let [x0, y0, x1, y1] = p.pixels;
+            let steps = if x0 == x1 && y0 == y1 {
+                &highlight::LATTICE_STEPS[..1]
+            } else {
+                &highlight::LATTICE_STEPS[..]
+            };
+            let scale = weight / steps.len() as f32;
             let mut sum = Color::ZERO;
-            for (j, step) in highlight::LATTICE_STEPS.iter().enumerate() {
+            for (j, step) in steps.iter().enumerate() {
                 let lu = highlight::wrap(rnd[0] + j as f32 * (1.0 / highlight::LATTICE as f32));
                 let lv = highlight::wrap(rnd[1] + step);
                 if let Some(v) =
@@ -350,7 +380,7 @@ impl<'a> Renderer<'a> {
                     sum += v;
                 }
             }
-            c += sum * (1.0 / highlight::LATTICE as f32);
+            c += sum * scale;
         });
         c
     }

@@ -191,6 +191,12 @@ struct PathState<'a> {
     ray: Ray,
     /// The object `ray` leaves (none for a camera ray).
     from: ObjectId,
+    /// The sphere the camera ray met ([`crate::highlight::NO_VIA`] for
+    /// none), with [`crate::highlight::VIA_INSIDE`] once the next ray met
+    /// it again (a ball passed through): the start of the chains whose
+    /// lights the highlight estimator samples.
+    #[cfg(feature = "highlight")]
+    via: u16,
     /// The spheres `ray` tests: the camera ray's list when culling, the
     /// bounce rays' list from the first bounce on.
     spheres: &'a [Listed],
@@ -237,6 +243,8 @@ impl<'a> PathState<'a> {
             thr: Color::ONE,
             ray,
             from: ObjectId::NONE,
+            #[cfg(feature = "highlight")]
+            via: crate::highlight::NO_VIA,
             spheres: if opts.skip.view_culling {
                 scene.tested_primary
             } else {
@@ -355,10 +363,11 @@ impl<'a> PathState<'a> {
         // camera ray's object) whose image the highlight estimator samples:
         // left to it
         #[cfg(feature = "highlight")]
-        if self.depth == 1
+        if self.depth <= 3
             && opts.highlights
             && let Some(h) = ctx.highlights
-            && h.covers(self.from, hit.object)
+            && let Some(via) = crate::highlight::Highlights::via_of(self.depth, self.via)
+            && h.covers(via, self.from, hit.object)
         {
             return;
         }
@@ -864,10 +873,19 @@ impl<'a> PathState<'a> {
         self.spheres = ctx.scene.tested;
         // one test per bounce for both the depth roulette and the cap
         if self.depth >= ctx.plan.deep {
-            match deep_roulette(self.depth, opts, stream, stats) {
+            match super::plan::deep_roulette(self.depth, opts, stream, stats) {
                 Some(w) => self.thr *= w,
                 None => return false,
             }
+        }
+        #[cfg(feature = "highlight")]
+        if self.depth == 1 {
+            self.via = hit
+                .object
+                .as_sphere()
+                .map_or(crate::highlight::NO_VIA, |i| i as u16);
+        } else if self.depth == 2 && hit.object.as_sphere() == Some(usize::from(self.via)) {
+            self.via |= crate::highlight::VIA_INSIDE;
         }
         self.from = hit.object;
         self.bounces += 1;
@@ -891,6 +909,10 @@ impl<'a> PathState<'a> {
             #[cfg(feature = "highlight")]
             {
                 self.caustic = CAUSTIC_NONE;
+                // the branch reflected off the ball the other passed through
+                if self.via != crate::highlight::NO_VIA {
+                    self.via &= !crate::highlight::VIA_INSIDE;
+                }
             }
             self.bounces += 1;
             return true;
@@ -964,27 +986,4 @@ fn no_prev() -> Prev {
             horizon: false,
         }
     }
-}
-
-/// The depth roulette and the cap, for a path at `depth` bounces (at least
-/// `deep_start` or `max_depth`): `None` ends the path (counted in
-/// `stats.truncated` where the cap ends it), else the survivor's weight
-/// `1 / deep_survival`. A path this long may be caught where its
-/// throughput never falls (total internal reflection, a mirror box), so it
-/// meets a second roulette, independent of the first, on the depth alone.
-/// Out of line and cold: almost no path gets here, and one copy serves
-/// every variant of the loop.
-#[cold]
-#[inline(never)]
-fn deep_roulette(
-    depth: u32,
-    opts: &Options,
-    stream: &mut SampleStream<'_>,
-    stats: &mut Stats,
-) -> Option<f32> {
-    if depth >= opts.max_depth {
-        stats.truncated += 1;
-        return None;
-    }
-    (stream.next_f32() < opts.deep_survival).then_some(1.0 / opts.deep_survival)
 }

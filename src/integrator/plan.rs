@@ -226,3 +226,26 @@ impl<'a> Ctx<'_, 'a> {
 pub(super) fn window_of(windows: &[Window], i: usize) -> Option<&Window> {
     windows.iter().find(|w| w.light as usize == i)
 }
+
+/// The depth roulette and the cap, for a path at `depth` bounces (at least
+/// `deep_start` or `max_depth`): `None` ends the path (counted in
+/// `stats.truncated` where the cap ends it), else the survivor's weight
+/// `1 / deep_survival`. A path this long may be caught where its
+/// throughput never falls (total internal reflection, a mirror box), so it
+/// meets a second roulette, independent of the first, on the depth alone.
+/// Out of line and cold: almost no path gets here, and one copy serves
+/// every variant of the loop.
+#[cold]
+#[inline(never)]
+pub(super) fn deep_roulette(
+    depth: u32,
+    opts: &Options,
+    stream: &mut crate::sampler::SampleStream<'_>,
+    stats: &mut crate::stats::Stats,
+) -> Option<f32> {
+    if depth >= opts.max_depth {
+        stats.truncated += 1;
+        return None;
+    }
+    (stream.next_f32() < opts.deep_survival).then_some(1.0 / opts.deep_survival)
+}

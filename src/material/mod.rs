@@ -14,6 +14,7 @@
 //! importance sampling. A new material touches this folder (and the
 //! parser), not the integrator.
 
+pub mod ball;
 pub mod checker;
 pub mod diffuse;
 pub mod glass;

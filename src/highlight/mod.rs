@@ -38,9 +38,25 @@ use crate::math;
 use crate::scene::SceneView;
 use crate::stats::Stats;
 
-/// Most (mirror, light) pairs a render estimates this way; further pairs
-/// are left to the path tracer.
-pub const CAPACITY: usize = 32;
+mod chain;
+
+use chain::estimate_chain;
+pub use chain::{CHAIN_AREA_MAX, CHAIN_SHARE, CHAINS, VIA_INSIDE};
+
+/// Most pairs (a light seen in a mirror, or through a chain: see
+/// [`Highlight::via`]) a render estimates this way; further pairs are left
+/// to the path tracer. Feature `small-ram` (a board of 16 KiB): 16 and no
+/// chains, and a scene with more pairs or with chains renders differently
+/// from the default build.
+#[cfg(not(feature = "small-ram"))]
+pub const CAPACITY: usize = 160;
+/// Most pairs (a light seen in a mirror, or through a chain: see
+/// [`Highlight::via`]) a render estimates this way; further pairs are left
+/// to the path tracer. Feature `small-ram` (a board of 16 KiB): 16 and no
+/// chains, and a scene with more pairs or with chains renders differently
+/// from the default build.
+#[cfg(feature = "small-ram")]
+pub const CAPACITY: usize = 16;
 
 /// Largest sine of the half-angle of a pair's direction cone.
 pub const SIN_MAX: f32 = 0.25;
@@ -85,11 +101,18 @@ pub struct Highlight {
     pub mirror: u16,
     /// Scene index of the light sphere.
     pub light: u16,
+    /// Scene index of the mirror sphere that the camera sees `mirror` in
+    /// (a chain: camera → `via` → `mirror` → light), or [`NO_VIA`] for a
+    /// light seen in `mirror` straight from the camera.
+    pub via: u16,
     /// Pixels `[x0, y0, x1, y1]` (inclusive) that can hold the light's
     /// image in the mirror (the film rectangle of the pair's cone of
     /// directions).
     pub pixels: [u16; 4],
 }
+
+/// [`Highlight::via`] of a light seen in a mirror straight from the camera.
+pub const NO_VIA: u16 = u16::MAX;
 
 impl Highlight {
     fn holds(&self, x: u32, y: u32) -> bool {
@@ -103,6 +126,8 @@ impl Highlight {
 pub struct Highlights {
     list: [Highlight; CAPACITY],
     len: usize,
+    /// The most rows a pair's rectangle spans, less one ([`Highlights::at`]).
+    tallest: u16,
 }
 
 impl Highlights {
@@ -111,12 +136,17 @@ impl Highlights {
         list: [Highlight {
             mirror: 0,
             light: 0,
+            via: NO_VIA,
             pixels: [0; 4],
         }; CAPACITY],
         len: 0,
+        tallest: 0,
     };
 
-    /// The pairs of `scene` seen by `camera` (none for a lens camera).
+    /// The pairs of `scene` seen by `camera` (none for a lens camera):
+    /// first every light seen in a mirror straight from the camera, then,
+    /// in the room left, the chains (camera → mirror → mirror → light)
+    /// whose images are largest on the film ([`CHAINS`] at most).
     #[inline(never)]
     pub fn new(scene: &SceneView<'_>, camera: &Camera) -> Self {
         let mut out = Self::NONE;
@@ -125,54 +155,58 @@ impl Highlights {
         }
         let (w, h) = (camera.width(), camera.height());
         for (mi, m) in scene.spheres.iter().enumerate() {
-            if !matches!(
-                scene.materials.get(m.material as usize),
-                Some(Material::Mirror(_))
-            ) {
+            if !is_mirror(scene, m) {
                 continue;
             }
             for &li in scene.emitters {
                 let Some(l) = scene.spheres.get(li as usize) else {
                     continue;
                 };
-                let d = (l.center - m.center).length();
-                let reach = l.radius + m.radius;
-                if !(l.radius >= m.radius && reach <= SIN_MAX * d) || out.len >= CAPACITY {
+                let Some(d) = pair_distance(m, l) else {
                     continue;
-                }
+                };
                 // a pair whose image is not bounded that way, or lies
                 // outside the film, is left to film sampling
                 let Some(pixels) = image_rect(camera, m, l, d).and_then(|r| pixel_rect(r, w, h))
                 else {
                     continue;
                 };
-                let hl = Highlight {
+                out.insert(Highlight {
                     mirror: mi as u16,
                     light: li,
+                    via: NO_VIA,
                     pixels,
-                };
-                // insertion by first row (stable: scene order among equals;
-                // no slice method that can panic, for the firmware's
-                // panic-free link)
-                let mut at = out.len;
-                while at > 0
-                    && out
-                        .list
-                        .get(at - 1)
-                        .is_some_and(|p| p.pixels[1] > pixels[1])
-                {
-                    if let Some([a, b]) = out.list.get_mut(at - 1..=at) {
-                        *b = *a;
-                    }
-                    at -= 1;
-                }
-                if let Some(slot) = out.list.get_mut(at) {
-                    *slot = hl;
-                }
-                out.len += 1;
+                });
             }
         }
+        out.add_chains(scene, camera);
         out
+    }
+
+    /// `hl` into the list by first row (stable: insertion order among
+    /// equals; no slice method that can panic, for the firmware's
+    /// panic-free link), if there is room.
+    fn insert(&mut self, hl: Highlight) {
+        if self.len >= CAPACITY {
+            return;
+        }
+        let mut at = self.len;
+        while at > 0
+            && self
+                .list
+                .get(at - 1)
+                .is_some_and(|p| p.pixels[1] > hl.pixels[1])
+        {
+            if let Some([a, b]) = self.list.get_mut(at - 1..=at) {
+                *b = *a;
+            }
+            at -= 1;
+        }
+        if let Some(slot) = self.list.get_mut(at) {
+            *slot = hl;
+        }
+        self.len += 1;
+        self.tallest = self.tallest.max(hl.pixels[3].saturating_sub(hl.pixels[1]));
     }
 
     /// The pairs.
@@ -185,24 +219,54 @@ impl Highlights {
         self.len == 0
     }
 
-    /// Whether the emission of `light` seen by a camera ray right after the
-    /// mirror `mirror` is estimated here (the path tracer then leaves it
-    /// out).
+    /// Whether the emission of `light` that a camera path meets right after
+    /// the mirror `mirror`, its chain so far `via` ([`Highlights::via_of`]),
+    /// is estimated here (the path tracer then leaves it out).
     #[inline]
-    pub fn covers(&self, mirror: ObjectId, light: ObjectId) -> bool {
+    pub fn covers(&self, via: u16, mirror: ObjectId, light: ObjectId) -> bool {
         let (Some(m), Some(l)) = (mirror.as_sphere(), light.as_sphere()) else {
             return false;
         };
         self.as_slice()
             .iter()
-            .any(|p| usize::from(p.mirror) == m && usize::from(p.light) == l)
+            .any(|p| usize::from(p.mirror) == m && usize::from(p.light) == l && p.via == via)
+    }
+
+    /// The [`Highlight::via`] of a path that meets a light at `depth`
+    /// bounces, the last of them in a mirror, having met first the sphere
+    /// `first` ([`NO_VIA`] for none) and, if `first` carries
+    /// [`VIA_INSIDE`], that sphere again right after: `None` where no
+    /// pair's chain is such a path (the estimator's chains are camera →
+    /// mirror → light at depth 1, camera → mirror → mirror → light at 2,
+    /// camera → glass → glass → mirror → light at 3).
+    #[inline(always)]
+    pub fn via_of(depth: u32, first: u16) -> Option<u16> {
+        match depth {
+            1 => Some(NO_VIA),
+            2 if first & VIA_INSIDE == 0 => Some(first),
+            3 if first & VIA_INSIDE != 0 && first != NO_VIA => Some(first),
+            _ => None,
+        }
     }
 
     /// The pairs whose rectangles hold pixel (x, y).
     #[inline(never)]
     pub fn at(&self, x: u32, y: u32) -> PixelHighlights {
         let mut out = PixelHighlights::NONE;
-        for (i, p) in self.as_slice().iter().enumerate() {
+        let list = self.as_slice();
+        // the first pair whose rectangle can reach row y: its first row at
+        // least y − tallest (the list is ordered by first row)
+        let from = y.saturating_sub(u32::from(self.tallest));
+        let (mut lo, mut hi) = (0usize, list.len());
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if list.get(mid).is_some_and(|p| u32::from(p.pixels[1]) < from) {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        for (i, p) in list.iter().enumerate().skip(lo) {
             if u32::from(p.pixels[1]) > y {
                 break;
             }
@@ -289,6 +353,23 @@ pub fn reflection_jacobian(
     math::abs(dw(a1).cross(dw(a2)).dot(w))
 }
 
+/// Whether sphere `m` is a mirror.
+fn is_mirror(scene: &SceneView<'_>, m: &Sphere) -> bool {
+    matches!(
+        scene.materials.get(m.material as usize),
+        Some(Material::Mirror(_))
+    )
+}
+
+/// The distance between the centres of mirror `m` and light `l` when the
+/// pair gets the estimator: the light at least as large as the mirror and
+/// its cone narrow (sine of the half-angle at most [`SIN_MAX`]).
+fn pair_distance(m: &Sphere, l: &Sphere) -> Option<f32> {
+    let d = (l.center - m.center).length();
+    let reach = l.radius + m.radius;
+    (l.radius >= m.radius && reach <= SIN_MAX * d).then_some(d)
+}
+
 /// Directions sampled on the rim of a pair's cone to bound its image.
 const RIM: usize = 32;
 /// cos and sin of 2π / [`RIM`].
@@ -304,14 +385,37 @@ const STEP_SIN: f32 = 0.195_090_32;
 /// the part the mirror hides from the eye) or its point is not in front of
 /// the eye.
 fn image_rect(camera: &Camera, m: &Sphere, l: &Sphere, d: f32) -> Option<[f32; 4]> {
+    rim_rect(m, l, d, RIM, |w| {
+        let n = mirror_point(camera.eye(), m.center, m.radius, w)?;
+        camera.film_of(m.center + n * m.radius)
+    })
+}
+
+/// The film rectangle of the cone of directions from mirror `m` to light
+/// `l` (centres `d` apart) under the map `film` from a direction to its
+/// film position, as [`image_rect`] bounds it.
+fn rim_rect(
+    m: &Sphere,
+    l: &Sphere,
+    d: f32,
+    rim: usize,
+    film: impl Fn(Vec3) -> Option<[f32; 2]>,
+) -> Option<[f32; 4]> {
+    // a step of 2π / rim: cos and sin of 2π / 32, doubled while the
+    // angle is smaller than the rim's step
+    let (mut step_cos, mut step_sin) = (STEP_COS, STEP_SIN);
+    let mut n = RIM;
+    while n > rim && n > 4 {
+        (step_cos, step_sin) = (
+            step_cos * step_cos - step_sin * step_sin,
+            2.0 * step_sin * step_cos,
+        );
+        n /= 2;
+    }
     let axis = (l.center - m.center) * (1.0 / d);
     let sin = (l.radius + m.radius) / d;
     let cos = math::sqrt(1.0 - sin * sin);
     let (b1, b2) = axis.basis();
-    let film = |w: Vec3| {
-        let n = mirror_point(camera.eye(), m.center, m.radius, w)?;
-        camera.film_of(m.center + n * m.radius)
-    };
     let [mut x0, mut y0] = film(axis)?;
     let (mut x1, mut y1) = (x0, y0);
     let mut gap = 0.0f32;
@@ -319,8 +423,8 @@ fn image_rect(camera: &Camera, m: &Sphere, l: &Sphere, d: f32) -> Option<[f32; 4
     let mut first = [0.0f32; 2];
     // (cos, sin) of k · 2π / RIM, turned by a step each time
     let (mut c, mut s) = (1.0f32, 0.0f32);
-    for k in 0..=RIM {
-        let [fx, fy] = if k == RIM {
+    for k in 0..=n {
+        let [fx, fy] = if k == n {
             first
         } else {
             film((axis * cos + (b1 * c + b2 * s) * sin).normalize())?
@@ -331,7 +435,7 @@ fn image_rect(camera: &Camera, m: &Sphere, l: &Sphere, d: f32) -> Option<[f32; 4
             first = [fx, fy];
         }
         prev = Some([fx, fy]);
-        (c, s) = (c * STEP_COS - s * STEP_SIN, s * STEP_COS + c * STEP_SIN);
+        (c, s) = (c * step_cos - s * step_sin, s * step_cos + c * step_sin);
         (x0, y0) = (math::min(x0, fx), math::min(y0, fy));
         (x1, y1) = (math::max(x1, fx), math::max(y1, fy));
     }
@@ -464,6 +568,10 @@ pub fn estimate(
     let le = scene.materials.get(l.material as usize)?.emission()?;
     let reach = l.radius + m.radius;
     let cone = light::sample_cone(m.center, l.center, reach * reach, rnd[0], rnd[1], false)?;
+    if p.via != NO_VIA {
+        let value = estimate_chain(scene, camera, p, m, cone.dir, [px, py], stats)?;
+        return Some(le * value * (1.0 / cone.pdf));
+    }
     let n = mirror_point(camera.eye(), m.center, m.radius, cone.dir)?;
     let [fx, fy] = camera.film_of(m.center + n * m.radius)?;
     let (x0, y0) = (px as f32, py as f32);
@@ -502,6 +610,7 @@ pub fn estimate(
 
 #[cfg(test)]
 mod tests {
+    use super::chain::{chain_points, first};
     use super::*;
     use crate::camera::CameraSpec;
 
@@ -590,18 +699,20 @@ mod tests {
         (scene, camera)
     }
 
-    /// Every film position the estimator can sample for a pair lies in the
-    /// pair's pixel rectangle (only those pixels run it, while the path
-    /// tracer leaves the pair's emission out everywhere).
+    /// Every film position the estimator can sample for a pair, or for a
+    /// chain through two balls, lies in the pair's pixel rectangle (only
+    /// those pixels run it, while the path tracer leaves the pair's
+    /// emission out everywhere).
     #[test]
     fn sampled_film_positions_lie_in_the_pairs_rectangle() {
         let (scene, camera) = field();
         let view = scene.view(camera.view_cos() - 1e-4);
         let pairs = Highlights::new(&view, &camera);
-        assert_eq!(
-            pairs.as_slice().len(),
-            15,
-            "every ball's highlight is in view"
+        let direct = pairs.as_slice().iter().filter(|p| p.via == NO_VIA).count();
+        assert_eq!(direct, 15, "every ball's highlight is in view");
+        assert!(
+            pairs.as_slice().len() > direct + 10,
+            "chains fill the room left"
         );
         let mut next = numbers();
         for p in pairs.as_slice() {
@@ -615,10 +726,22 @@ mod tests {
                 else {
                     continue;
                 };
-                let Some(n) = mirror_point(camera.eye(), m.center, m.radius, cone.dir) else {
-                    continue;
+                let seen = if p.via == NO_VIA {
+                    let Some(n) = mirror_point(camera.eye(), m.center, m.radius, cone.dir) else {
+                        continue;
+                    };
+                    m.center + n * m.radius
+                } else {
+                    let a = view.spheres[usize::from(p.via & !VIA_INSIDE)];
+                    let (kind, _) = first(&view, camera.eye(), &a).unwrap();
+                    let Some((seen, _, _)) =
+                        chain_points(camera.eye(), kind, &a, &m, cone.dir, None)
+                    else {
+                        continue;
+                    };
+                    seen
                 };
-                let [fx, fy] = camera.film_of(m.center + n * m.radius).unwrap();
+                let [fx, fy] = camera.film_of(seen).unwrap();
                 let (px, py) = (math::floor(fx), math::floor(fy));
                 if px < 0.0 || py < 0.0 || px >= 48.0 || py >= 32.0 {
                     continue;
