@@ -65,7 +65,14 @@ pub const SHARE: f32 = 0.1;
 pub const GLASS_JAC_MIN: f32 = 0.1;
 
 /// Most mirror and glass spheres whose caustics a render samples; further
-/// spheres are left to the path tracer's BSDF samples.
+/// spheres are left to the path tracer's BSDF samples. Feature
+/// `small-ram` (a board of 16 KiB): 64.
+#[cfg(not(feature = "small-ram"))]
+pub const CAPACITY: usize = 128;
+/// Most mirror and glass spheres whose caustics a render samples; further
+/// spheres are left to the path tracer's BSDF samples. Feature
+/// `small-ram` (a board of 16 KiB): 64.
+#[cfg(feature = "small-ram")]
 pub const CAPACITY: usize = 64;
 
 /// The mirror and glass spheres of a scene with a caustic pair
