@@ -191,10 +191,11 @@ struct PathState<'a> {
     ray: Ray,
     /// The object `ray` leaves (none for a camera ray).
     from: ObjectId,
-    /// The sphere the camera ray met ([`crate::highlight::NO_VIA`] for
-    /// none), with [`crate::highlight::VIA_INSIDE`] once the next ray met
-    /// it again (a ball passed through): the start of the chains whose
-    /// lights the highlight estimator samples.
+    /// The sphere the camera ray met if it is a mirror or glass
+    /// ([`crate::highlight::NO_VIA`] for none), with
+    /// [`crate::highlight::VIA_INSIDE`] once the next ray met it again (a
+    /// ball passed through): the start of the chains whose lights the
+    /// highlight estimator samples. Set at delta vertices only.
     #[cfg(feature = "highlight")]
     via: u16,
     /// The spheres `ray` tests: the camera ray's list when culling, the
@@ -765,7 +766,19 @@ impl<'a> PathState<'a> {
         opts: &Options,
     ) -> bool {
         #[cfg(feature = "highlight")]
-        self.caustic_step(mat, hit, &ds);
+        {
+            self.caustic_step(mat, hit, &ds);
+            // the chains' start: the camera ray's sphere, and whether the
+            // next ray meets it again (only delta vertices make a chain)
+            if self.depth == 0 {
+                self.via = hit
+                    .object
+                    .as_sphere()
+                    .map_or(crate::highlight::NO_VIA, |i| i as u16);
+            } else if self.depth == 1 && hit.object.as_sphere() == Some(usize::from(self.via)) {
+                self.via |= crate::highlight::VIA_INSIDE;
+            }
+        }
         let ds = self.split(mat, hit, ds);
         self.thr *= ds.weight;
         self.rr_scale /= ds.scale;
@@ -877,15 +890,6 @@ impl<'a> PathState<'a> {
                 Some(w) => self.thr *= w,
                 None => return false,
             }
-        }
-        #[cfg(feature = "highlight")]
-        if self.depth == 1 {
-            self.via = hit
-                .object
-                .as_sphere()
-                .map_or(crate::highlight::NO_VIA, |i| i as u16);
-        } else if self.depth == 2 && hit.object.as_sphere() == Some(usize::from(self.via)) {
-            self.via |= crate::highlight::VIA_INSIDE;
         }
         self.from = hit.object;
         self.bounces += 1;
