@@ -325,15 +325,10 @@ impl<'a> Renderer<'a> {
     fn highlights_of(&self, pixel: &Pixel, x: u32, y: u32, index: u32, stats: &mut Stats) -> Color {
         let mut c = Color::ZERO;
         pixel.highlights.each(&self.highlights, x, y, |k, p| {
-            // a chain's path reaches its light after two bounces (three
-            // through a ball): not there when paths end sooner, nor does
-            // the path tracer's
-            let bounces = match p.via {
-                highlight::NO_VIA => 1,
-                v if v & highlight::VIA_INSIDE != 0 => 3,
-                _ => 2,
-            };
-            if self.options.max_depth <= bounces {
+            // a pair's paths reach the light after one bounce, a chain's
+            // after two or three: none when paths end sooner (nor does the
+            // path tracer meet them)
+            if self.options.max_depth <= highlight::Highlight::bounces(p.via) {
                 return;
             }
             // the pair's own scrambled Sobol points over the pixel's
@@ -360,9 +355,8 @@ impl<'a> Renderer<'a> {
             // LATTICE directions a sample: the lattice's points shifted by
             // the sample's pair (each uniform in the cone, so each term is
             // unbiased), so that a pixel holding a sliver of the light's
-            // image counts many of its directions, not none or one
-            // an image within one pixel: every direction lands in it, and
-            // one a sample serves
+            // image counts many of its directions, not none or one; an
+            // image within one pixel gets them all, and one serves
             let [x0, y0, x1, y1] = p.pixels;
             let steps = if x0 == x1 && y0 == y1 {
                 &highlight::LATTICE_STEPS[..1]

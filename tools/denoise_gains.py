@@ -15,13 +15,9 @@ target/release/micropt).
 import os, subprocess, sys, tempfile
 import numpy as np
 
-def read_pfm(path):
-    with open(path, 'rb') as f:
-        f.readline()
-        w, h = map(int, f.readline().split())
-        scale = float(f.readline())
-        data = np.frombuffer(f.read(), dtype='<f4' if scale < 0 else '>f4')
-    return data.reshape(h, w, 3)[::-1].astype(np.float64)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), 'mitsuba'))
+from common import read_pfm  # noqa: E402 (float64, rows top to bottom)
+
 
 def main():
     args = sys.argv[1:]

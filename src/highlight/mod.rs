@@ -95,15 +95,16 @@ pub const PIXEL_PAIRS: usize = 8;
 
 /// One (mirror sphere, light sphere) pair and the pixels the mirror's image
 /// can touch.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Highlight {
     /// Scene index of the mirror sphere.
     pub mirror: u16,
     /// Scene index of the light sphere.
     pub light: u16,
-    /// Scene index of the mirror sphere that the camera sees `mirror` in
-    /// (a chain: camera → `via` → `mirror` → light), or [`NO_VIA`] for a
-    /// light seen in `mirror` straight from the camera.
+    /// Scene index of the sphere that the camera sees `mirror` in (a
+    /// chain: camera → `via` → `mirror` → light): a mirror, or a glass ball
+    /// passed through with [`VIA_INSIDE`] set; [`NO_VIA`] for a light seen
+    /// in `mirror` straight from the camera.
     pub via: u16,
     /// Pixels `[x0, y0, x1, y1]` (inclusive) that can hold the light's
     /// image in the mirror (the film rectangle of the pair's cone of
@@ -115,6 +116,26 @@ pub struct Highlight {
 pub const NO_VIA: u16 = u16::MAX;
 
 impl Highlight {
+    /// No pair (a light seen straight in mirror 0, on no pixel).
+    pub const NONE: Self = Self {
+        mirror: 0,
+        light: 0,
+        via: NO_VIA,
+        pixels: [0; 4],
+    };
+
+    /// The bounces of the pair's paths before they meet the light: 1 in a
+    /// mirror, 2 through a chain of two mirrors, 3 through a glass ball
+    /// and a mirror.
+    #[inline(always)]
+    pub fn bounces(via: u16) -> u32 {
+        match via {
+            NO_VIA => 1,
+            v if v & VIA_INSIDE != 0 => 3,
+            _ => 2,
+        }
+    }
+
     fn holds(&self, x: u32, y: u32) -> bool {
         let [x0, y0, x1, y1] = self.pixels;
         (u32::from(x0)..=u32::from(x1)).contains(&x) && (u32::from(y0)..=u32::from(y1)).contains(&y)
@@ -133,12 +154,7 @@ pub struct Highlights {
 impl Highlights {
     /// No pairs.
     pub const NONE: Self = Self {
-        list: [Highlight {
-            mirror: 0,
-            light: 0,
-            via: NO_VIA,
-            pixels: [0; 4],
-        }; CAPACITY],
+        list: [Highlight::NONE; CAPACITY],
         len: 0,
         tallest: 0,
     };
@@ -241,12 +257,8 @@ impl Highlights {
     /// camera → glass → glass → mirror → light at 3).
     #[inline(always)]
     pub fn via_of(depth: u32, first: u16) -> Option<u16> {
-        match depth {
-            1 => Some(NO_VIA),
-            2 if first & VIA_INSIDE == 0 => Some(first),
-            3 if first & VIA_INSIDE != 0 && first != NO_VIA => Some(first),
-            _ => None,
-        }
+        let via = if depth == 1 { NO_VIA } else { first };
+        (Highlight::bounces(via) == depth).then_some(via)
     }
 
     /// The pairs whose rectangles hold pixel (x, y).
