@@ -243,6 +243,10 @@ pub struct CausticSample {
     /// path's solid-angle density at `x` (the tint is the mirror's, or the
     /// glass's two Fresnel transmittances).
     pub value: Color,
+    /// Whether the path concentrates the light (`|dω/dω_x|` below
+    /// [`FOCUSED_JAC`]): a focused caustic, sharp at the film's scale,
+    /// where a broad one varies smoothly.
+    pub focused: bool,
 }
 
 impl CausticSample {
@@ -250,8 +254,14 @@ impl CausticSample {
     pub const NONE: Self = Self {
         wi: Vec3::ZERO,
         value: Color::ZERO,
+        focused: false,
     };
 }
+
+/// A caustic path whose light cone's solid angle is less than this
+/// fraction of its solid angle at `x` concentrates the light more than
+/// twice: [`CausticSample::focused`].
+pub const FOCUSED_JAC: f32 = 1.0;
 
 /// Samples the light of the caustic spheres `list` that reaches `x`
 /// (shading normal `n`) through one of them: a (sphere, light) pair chosen
@@ -366,6 +376,7 @@ pub fn sample(
                 *slot = CausticSample {
                     wi,
                     value: tint * le * (scale / jac),
+                    focused: jac < FOCUSED_JAC,
                 };
             }
             1
@@ -389,6 +400,7 @@ pub fn sample(
                     *slot = CausticSample {
                         wi: p.wi,
                         value: le * (p.transmit * scale / p.jac),
+                        focused: p.jac < FOCUSED_JAC,
                     };
                     kept += 1;
                 }

@@ -284,3 +284,65 @@ fn glass_caustic_sample_estimates_what_cosine_sampling_finds() {
     }
     assert!(nonzero >= 3, "the caustic reaches the points ({nonzero})");
 }
+
+/// Law checked: a convex mirror spreads the light it reflects
+/// (`|dω/dω_x| ≥ 1`: its caustic is never brighter than the light seen
+/// directly from the same point would make it), while a glass ball
+/// focuses it (`|dω/dω_x| < 1` near the axis behind it). The flag
+/// [`CausticSample::focused`], which decides what the denoiser leaves
+/// sharp, follows: never on a mirror ball's paths, on some of a glass
+/// ball's and not on others.
+#[test]
+fn a_glass_ball_focuses_its_caustic_and_a_mirror_ball_never_does() {
+    let mut counts = [[0u32; 2]; 2];
+    for (k, ball) in [Material::Glass(1.5), Material::Mirror(Color::splat(0.9))]
+        .into_iter()
+        .enumerate()
+    {
+        let mut b = micropt::SceneBuilder::<8, 2, 4>::new();
+        let ground = b.material(Material::Diffuse(Color::splat(1.0))).unwrap();
+        let m = b.material(ball).unwrap();
+        let sun = b.material(Material::Light(Color::splat(100.0))).unwrap();
+        let spec = micropt::camera::CameraSpec::pinhole(
+            Vec3::new(0.0, 6.0, 3.0),
+            Vec3::ZERO,
+            Vec3::new(0.0, 1.0, 0.0),
+            30.0,
+        );
+        b.camera(spec).unwrap();
+        b.plane(Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), ground)
+            .unwrap();
+        b.sphere(Vec3::new(0.0, 1.2, 0.0), 1.0, m).unwrap();
+        b.sphere(Vec3::new(25.0, 43.3, 0.0), 5.0, sun).unwrap();
+        let scene = b.build().unwrap();
+        let view = scene.view(-1.0);
+        let n = Vec3::new(0.0, 1.0, 0.0);
+        let mut next = numbers();
+        for _ in 0..200_000 {
+            // a point of the ground within 3 of the ball's foot
+            let x = Vec3::new(6.0 * next() - 3.0, 0.0, 6.0 * next() - 3.0);
+            let hit = Hit {
+                t: 1.0,
+                point: x,
+                normal: n,
+                error: 1e-6,
+                object: ObjectId::plane(0),
+                material: 0,
+            };
+            let mut out = [CausticSample::NONE; ROOTS];
+            let mut rays = 0;
+            let u = [next(), next()];
+            let found = sample(&view, &[0u16], &hit, n, next(), u, &mut rays, &mut out);
+            for cs in out.iter().take(found) {
+                counts[k][usize::from(cs.focused)] += 1;
+            }
+        }
+    }
+    let [[glass_broad, glass_focused], [mirror_broad, mirror_focused]] = counts;
+    assert!(
+        glass_focused > 100 && glass_broad > 100,
+        "glass: {glass_focused} focused, {glass_broad} broad"
+    );
+    assert!(mirror_broad > 100, "mirror: {mirror_broad} paths");
+    assert_eq!(mirror_focused, 0, "a mirror ball's focused paths");
+}

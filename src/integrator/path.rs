@@ -97,7 +97,7 @@ fn caustic_paths<B: Lobe>(
     lobe: &B,
     u0: f32,
     u: [f32; 2],
-) -> (Color, u32) {
+) -> (Color, Color, u32) {
     let mut out = [CausticSample::NONE; ROOTS];
     let mut rays = 0;
     let found = caustic::sample(
@@ -110,14 +110,18 @@ fn caustic_paths<B: Lobe>(
         &mut rays,
         &mut out,
     );
-    let mut sum = Color::ZERO;
+    let (mut sum, mut focused) = (Color::ZERO, Color::ZERO);
     for cs in out.iter().take(found) {
         let cos_i = at.n.dot(cs.wi);
         let (s, pi_pdf) = lobe.eval(at.wo, at.n, cs.wi, cos_i);
         // f cos θ = tint · s · pdf
-        sum += lobe.tint() * cs.value * (s * pi_pdf * (math::INV_PI / caustic::SHARE));
+        let c = lobe.tint() * cs.value * (s * pi_pdf * (math::INV_PI / caustic::SHARE));
+        sum += c;
+        if cs.focused {
+            focused += c;
+        }
     }
-    (sum, rays)
+    (sum, focused, rays)
 }
 
 /// What the last vertex of a path was. Emitters get full weight after the
@@ -167,7 +171,8 @@ pub struct PathSum {
     /// The part of `total` that emitters (and the background) give straight
     /// to the camera or through mirrors and glass only: a light seen
     /// directly, its image in a mirror ball or through a glass ball; and
-    /// the caustics sampled through a ball ([`crate::caustic`]). A denoiser
+    /// the focused caustics sampled through a glass ball
+    /// ([`crate::caustic::CausticSample::focused`]). A denoiser
     /// keeps it out of its filter (it is sharp, and most of it has little
     /// noise); callers that do not split the estimate ignore it, and the
     /// compiler drops its arithmetic.
@@ -513,12 +518,12 @@ impl<'a> PathState<'a> {
             return;
         }
         let u = stream.next_2d();
-        let (c, rays) = caustic_paths(ctx, at, lobe, u0 * (1.0 / caustic::SHARE), u);
-        let c = self.thr * c;
-        // kept with the direct part, out of a denoiser's filter (a caustic
-        // is sharp, and this estimate of it has little noise)
-        self.l += c;
-        self.direct += c;
+        let (c, focused, rays) = caustic_paths(ctx, at, lobe, u0 * (1.0 / caustic::SHARE), u);
+        // a focused caustic is kept with the direct part, out of a
+        // denoiser's filter (it is sharp); a broad one varies as smoothly
+        // as the light scattered there, and is filtered with it
+        self.l += self.thr * c;
+        self.direct += self.thr * focused;
         self.shadows += rays;
     }
 
