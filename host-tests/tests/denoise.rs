@@ -172,9 +172,7 @@ fn at_1024_spp_the_filter_backs_off_and_the_mse_is_not_above_the_raw_images() {
 /// times its radiance (albedo 0.1 against 0.8): compared in radiance it
 /// was no outlier, and spread into the light squares beside it it made
 /// the image's MSE 1.49 times the raw one's. Compared in the filters'
-/// domain it is left out. (At 128 spp, seed 1, the MSE is still above the
-/// raw one: the caustic's edge, a bias the per-pixel choice does not see;
-/// docs/denoise.md.)
+/// domain it is left out.
 #[test]
 fn a_firefly_on_a_dark_texel_is_an_outlier_in_the_filters_domain() {
     let r = Reference::load("dof").unwrap();
@@ -187,4 +185,108 @@ fn a_firefly_on_a_dark_texel_is_an_outlier_in_the_filters_domain() {
         dn < raw,
         "denoised MSE {dn:.4e} above the raw image's {raw:.4e}"
     );
+}
+
+/// The guides of a `w × h` render of scene `text`, row-major.
+fn guides(text: &str, w: u32, h: u32) -> Vec<micropt::denoise::Guide> {
+    let scene = micropt_host::render::parse_host(text).unwrap();
+    let renderer = micropt::Renderer::new(&scene, w, h).unwrap();
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| micropt::denoise::guide(&renderer, x, y))
+        .collect()
+}
+
+#[test]
+fn the_guide_tells_a_hard_shadow_from_the_lit_floor() {
+    // a floor seen from straight above, a small light at (4, 5, 0) and a
+    // ball at (2, 2.5, 0) on the line from the light to the floor's
+    // origin: the image's centre is in the ball's shadow. Albedo, normal
+    // and object are the floor's everywhere but on the ball; only the
+    // visibility of the light tells the shadow's pixels from the lit ones
+    let text = "camera 0 10 0   0 0 0   0 0 -1   60\n\
+                material floor diffuse 0.5 0.5 0.5\n\
+                material grey diffuse 0.5 0.5 0.5\n\
+                material lamp light 50 50 50\n\
+                plane 0 0 0   0 1 0   floor\n\
+                sphere 4 5 0   0.2   lamp\n\
+                sphere 2 2.5 0   0.5   grey\n";
+    let (w, h) = (64, 64);
+    let g = guides(text, w, h);
+    let at = |x: u32, y: u32| g[(y * w + x) as usize];
+    let shadow = at(32, 32);
+    let lit = [at(7, 7), at(57, 57), at(7, 57), at(57, 7)];
+    for l in lit {
+        assert_eq!(l.key, lit[0].key, "lit floor pixels share a key");
+        assert_eq!((l.albedo, l.normal), (shadow.albedo, shadow.normal));
+    }
+    assert_ne!(
+        shadow.key, lit[0].key,
+        "the shadow's key is the lit floor's"
+    );
+    // the key changes where the light's centre goes behind the ball: an
+    // ellipse of radii 1 (the ball's radius, twice as far from the light)
+    // and 1.28 (the light's slant, 6.4 / 5), 4.0 square units at 5.5
+    // pixels a unit: about 123 pixels
+    let shadowed = g.iter().filter(|p| p.key == shadow.key).count();
+    assert!(
+        (100..=150).contains(&shadowed),
+        "{shadowed} pixels in the shadow"
+    );
+}
+
+#[test]
+fn a_texture_edge_inside_a_pixel_is_blurred_with_the_mean_albedo() {
+    // a checker of 1-unit squares seen from straight above, 8.8 pixels a
+    // square: a pixel whose box holds a square's edge sees two albedos,
+    // and its guide says so (the mean albedo, divided out by nobody);
+    // a pixel inside a square keeps its square's albedo
+    let text = "camera 0.01 10 0.01   0.01 0 0.01   0 0 -1   40\n\
+                material floor checker 0.8 0.8 0.8   0.2 0.2 0.2   1\n\
+                plane 0 0 0   0 1 0   floor\n";
+    let (w, h) = (64, 64);
+    let g = guides(text, w, h);
+    let (mut blurred, mut sharp) = (0, 0);
+    for p in &g {
+        assert_eq!(p.kind, micropt::denoise::GuideKind::Surface);
+        let a = p.albedo.x;
+        if p.blurred {
+            blurred += 1;
+            assert!(a > 0.2 && a < 0.8, "a blurred pixel's albedo {a}");
+        } else {
+            sharp += 1;
+            assert!(a == 0.8 || a == 0.2, "a sharp pixel's albedo {a}");
+        }
+    }
+    // the guide looks 0.45 pixels either side of the centre: a square's
+    // edge is seen from 0.9 of every 8.8 pixel columns and rows, about
+    // 1 − (7.9/8.8)² = 19 % of the pixels
+    let share = blurred as f64 / (blurred + sharp) as f64;
+    assert!(
+        (0.15..0.25).contains(&share),
+        "{blurred} blurred of {}",
+        g.len()
+    );
+}
+
+#[test]
+fn a_checker_far_out_of_focus_is_blurred() {
+    // the same checker through a thin lens focused at 1 (the floor at 10,
+    // the lens's radius 0.5): each pixel's samples spread over squares,
+    // and the lens's rim sees other albedos than its centre almost
+    // everywhere; in focus (at 10) the share is the pinhole's
+    let scene = |focus: f32| {
+        format!(
+            "camera 0.01 10 0.01   0.01 0 0.01   0 0 -1   40   0.5 {focus}\n\
+             material floor checker 0.8 0.8 0.8   0.2 0.2 0.2   1\n\
+             plane 0 0 0   0 1 0   floor\n"
+        )
+    };
+    let share = |focus: f32| {
+        let g = guides(&scene(focus), 64, 64);
+        g.iter().filter(|p| p.blurred).count() as f64 / g.len() as f64
+    };
+    let (blurred, sharp) = (share(1.0), share(10.0));
+    assert!(blurred > 0.9, "out of focus: {blurred} blurred");
+    assert!(sharp < 0.25, "in focus: {sharp} blurred");
 }

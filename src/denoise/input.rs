@@ -120,13 +120,20 @@ pub struct Guide {
     /// The unit shading normal, toward the ray (OIDN's world-space normal).
     pub normal: Vec3,
     /// The objects along the way (the mirrors and glass, then the surface),
-    /// hashed: two pixels are filtered together only where it is equal.
+    /// and whether the surface sees its brightest light and is
+    /// [`Guide::blurred`], hashed: two pixels are filtered together only
+    /// where it is equal.
     pub key: u32,
     /// How many mirror and glass vertices came before the surface.
     pub deltas: u32,
     /// Whether the surface is a plane (its normal the same at every
     /// point: pixels of the same key need no normal test).
     pub flat: bool,
+    /// Whether the pixel's samples see a blur of the surface's texture (a
+    /// thin lens out of focus over a checker): `albedo` is then the mean
+    /// over the lens points, too coarse to divide out, and the filter
+    /// smooths the radiance itself, with other blurred pixels only.
+    pub blurred: bool,
 }
 
 impl Guide {
@@ -138,6 +145,7 @@ impl Guide {
         key: 0,
         deltas: 0,
         flat: false,
+        blurred: false,
     };
 }
 
@@ -146,6 +154,24 @@ impl Guide {
 /// concentric map's edge midpoints).
 #[cfg(feature = "lens")]
 const LENS_RIM: [[f32; 2]; 4] = [[0.999_999, 0.5], [0.0, 0.5], [0.5, 0.999_999], [0.5, 0.0]];
+
+/// Albedos that differ by more than this (in a channel) are different.
+const BLUR_TOLERANCE: f32 = 1.0 / 64.0;
+/// What a blurred pixel's key is XORed with: it is filtered with blurred
+/// pixels of the same object chain only.
+const BLURRED_KEY: u32 = 0x5bd1_e995;
+/// Where a textured pixel's albedo is looked at besides its centre (film
+/// offsets, pixels): near its four corners.
+#[cfg(feature = "checker")]
+const PIXEL_CORNERS: [[f32; 2]; 4] = [[-0.45, -0.45], [0.45, -0.45], [-0.45, 0.45], [0.45, 0.45]];
+
+/// Whether two albedos differ (by more than [`BLUR_TOLERANCE`] in a
+/// channel).
+#[allow(dead_code)] // a build with neither checker nor lens never blurs
+#[inline(always)]
+fn differ(a: Color, b: Color) -> bool {
+    math::gt((a - b).abs().max_component(), BLUR_TOLERANCE)
+}
 
 /// The guide of pixel (x, y): the centre ray (through the lens's centre,
 /// for a thin lens) followed through up to [`GUIDE_DEPTH`] mirror and glass
@@ -157,19 +183,65 @@ const LENS_RIM: [[f32; 2]; 4] = [[0.999_999, 0.5], [0.0, 0.5], [0.5, 0.999_999],
 /// from the lens's rim reach another object chain than the centre's (the
 /// blurred edge of a defocused object) is left unfiltered, its guide's
 /// albedo and normal kept for the guide images.
+///
+/// Two more things the samples see that the centre ray alone would miss:
+/// whether the surface's point sees its brightest light (a shadow's edge
+/// splits the key, as an object's edge does), and, on a textured surface,
+/// whether other albedos lie within the pixel (rays near its corners) or
+/// across the lens (the rim's rays): then the pixel is
+/// [`Guide::blurred`], its albedo the mean of those seen.
 pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
     let (fx, fy) = (x as f32 + 0.5, y as f32 + 0.5);
-    let g = guide_along(renderer, renderer.camera().ray(fx, fy));
+    let (mut g, textured, sees) = guide_along(renderer, renderer.camera().ray(fx, fy), true);
+    if g.kind != GuideKind::Surface {
+        return g;
+    }
+    // where the pixel's samples see more than one albedo (a texture's
+    // edge, a texture out of focus), the centre's is not theirs to divide
+    // out: the mean of the albedos seen, and the pixel is blurred
+    // (a build with neither lens nor checker never blurs)
+    #[cfg_attr(not(any(feature = "lens", feature = "checker")), allow(unused_mut))]
+    let (mut albedo, mut seen, mut blurred) = (g.albedo, 1u32, false);
     #[cfg(feature = "lens")]
-    if g.kind == GuideKind::Surface && renderer.camera().has_lens() {
+    if renderer.camera().has_lens() {
         for lens in LENS_RIM {
-            if guide_along(renderer, renderer.camera().lens_ray(fx, fy, lens)).key != g.key {
+            let (r, ..) = guide_along(renderer, renderer.camera().lens_ray(fx, fy, lens), false);
+            if r.key != g.key {
                 return Guide {
                     kind: GuideKind::Keep,
                     ..g
                 };
             }
+            blurred |= differ(r.albedo, g.albedo);
+            albedo += r.albedo;
+            seen += 1;
         }
+    }
+    #[cfg(feature = "checker")]
+    if textured {
+        for [dx, dy] in PIXEL_CORNERS {
+            let (r, ..) = guide_along(renderer, renderer.camera().ray(fx + dx, fy + dy), false);
+            // another object at a corner is the object's edge, which the
+            // key test is for
+            if r.key == g.key {
+                blurred |= differ(r.albedo, g.albedo);
+                albedo += r.albedo;
+                seen += 1;
+            }
+        }
+    }
+    #[cfg(not(feature = "checker"))]
+    let _ = textured;
+    if sees {
+        g.key ^= SEES_LIGHT_KEY;
+    }
+    if blurred {
+        g = Guide {
+            albedo: albedo * (1.0 / seen as f32),
+            key: g.key ^ BLURRED_KEY,
+            blurred: true,
+            ..g
+        };
     }
     g
 }
@@ -181,45 +253,54 @@ pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
     not(any(feature = "mirror", feature = "glass")),
     allow(unreachable_code, unused_mut, unused_variables)
 )]
-fn guide_along(renderer: &Renderer<'_>, mut ray: Ray) -> Guide {
+/// Also returns whether the surface is textured (its albedo changes over
+/// it) and, if `light` asks, whether it sees its brightest light
+/// ([`sees_brightest_light`]).
+fn guide_along(renderer: &Renderer<'_>, mut ray: Ray, light: bool) -> (Guide, bool, bool) {
+    const KEEP: (Guide, bool, bool) = (Guide::KEEP, false, false);
     let scene = renderer.scene();
     let mut from = ObjectId::NONE;
     let mut tint = Color::ONE;
     let mut key: u32 = 0x9e37_79b9;
     for deltas in 0..=GUIDE_DEPTH {
         let Some(hit) = scene.closest_hit(&ray, from) else {
-            return Guide::KEEP;
+            return KEEP;
         };
         key = key.rotate_left(5) ^ (u32::from(hit.object.0) + 1);
         key = key.wrapping_mul(0x0100_0193);
         let Some(mat) = scene.materials.get(hit.material as usize) else {
-            return Guide::KEEP;
+            return KEEP;
         };
         let n = if math::lt_zero(ray.dir.dot(hit.normal)) {
             hit.normal
         } else {
             -hit.normal
         };
-        let surface = |albedo: Color| Guide {
-            kind: GuideKind::Surface,
-            albedo: tint * albedo,
-            normal: n,
-            key,
-            deltas,
-            flat: hit.object.as_plane().is_some(),
+        let surface = |albedo: Color, textured: bool| {
+            let g = Guide {
+                kind: GuideKind::Surface,
+                albedo: tint * albedo,
+                normal: n,
+                key,
+                deltas,
+                flat: hit.object.as_plane().is_some(),
+                blurred: false,
+            };
+            (g, textured, light && sees_brightest_light(scene, &hit, n))
         };
         let dir = match mat {
-            Material::Diffuse(a) => return surface(*a),
+            Material::Diffuse(a) => return surface(*a, false),
             #[cfg(feature = "checker")]
             Material::Checker(c) => {
-                return surface(c.albedo_at(hit.point, hit.object.as_plane().map(|_| hit.normal)));
+                let albedo = c.albedo_at(hit.point, hit.object.as_plane().map(|_| hit.normal));
+                return surface(albedo, true);
             }
             #[cfg(feature = "metal")]
             Material::Metal(m) => {
                 if math::lt(m.alpha, SHARP_ALPHA) {
-                    return Guide::KEEP;
+                    return KEEP;
                 }
-                return surface(m.tint);
+                return surface(m.tint, false);
             }
             #[cfg(feature = "mirror")]
             Material::Mirror(t) => {
@@ -232,10 +313,65 @@ fn guide_along(renderer: &Renderer<'_>, mut ray: Ray) -> Guide {
                 // it unless the reflection carries everything)
                 crate::material::sample_dielectric(ray.dir, hit.normal, *ior, 0.999_999).0
             }
-            _ => return Guide::KEEP,
+            _ => return KEEP,
         };
         ray = hit.spawn(dir);
         from = hit.object;
     }
-    Guide::KEEP
+    KEEP
+}
+
+/// Lights the visibility guide compares (the first of the scene's list).
+const GUIDE_LIGHTS: usize = 16;
+/// What the key of a pixel whose surface sees its brightest light is
+/// XORed with: a hard shadow's edge separates taps as an object's does.
+const SEES_LIGHT_KEY: u32 = 0x2545_f491;
+
+/// Whether the point `hit` (normal `n`, toward the viewer) sees the centre
+/// of the light that would give it the most irradiance unoccluded (the
+/// largest `L_e r² cos θ / d²` among the first [`GUIDE_LIGHTS`] lights): a
+/// noise-free guide of the light's shadows, which no albedo or normal
+/// shows (a sphere's shadow on the floor, a contact shadow).
+fn sees_brightest_light(
+    scene: &crate::scene::SceneView<'_>,
+    hit: &crate::geometry::Hit,
+    n: Vec3,
+) -> bool {
+    let mut best = 0.0f32;
+    let mut target = None;
+    for &i in scene.lights.iter().take(GUIDE_LIGHTS) {
+        let Some(s) = scene.spheres.get(usize::from(i)) else {
+            continue;
+        };
+        let Some(le) = scene
+            .materials
+            .get(usize::from(s.material))
+            .and_then(|m| m.emission())
+        else {
+            continue;
+        };
+        let d = s.center - hit.point;
+        let d2 = d.dot(d);
+        let cos_d = n.dot(d);
+        if !(math::gt_zero(cos_d) && math::gt(d2, s.radius * s.radius)) {
+            continue;
+        }
+        // L r² (n·d) / d³ = L r² cos θ / d²
+        let e = le.luminance() * s.radius * s.radius * cos_d / (d2 * math::sqrt(d2));
+        if math::gt(e, best) && math::is_finite(e) {
+            best = e;
+            target = Some((i, d, d2));
+        }
+    }
+    let Some((i, d, d2)) = target else {
+        return false;
+    };
+    let dist = math::sqrt(d2);
+    let dir = d * (1.0 / dist);
+    !scene.occluded(
+        &hit.spawn_on(n, dir),
+        dist,
+        hit.object,
+        ObjectId::sphere(usize::from(i)),
+    )
 }

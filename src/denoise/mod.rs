@@ -171,7 +171,8 @@ impl Texel {
         Self {
             scattered,
             direct,
-            albedo: g.albedo,
+            // a blurred texture's radiance is smoothed as it is
+            albedo: if g.blurred { Color::ONE } else { g.albedo },
             normal: g.normal,
             variance,
             spread: iid,

@@ -20,6 +20,7 @@ fn wall(a: Color, s: Color, v: f32, key: u32) -> Texel {
         key,
         deltas: 0,
         flat: true,
+        blurred: false,
     };
     // moments of n samples whose mean is s and whose mean's variance is v
     let n = 16u32;
@@ -231,6 +232,7 @@ fn a_light_seen_directly_is_kept_and_the_rest_filtered() {
         key: 1,
         deltas,
         flat: true,
+        blurred: false,
     };
     let m = Moments {
         scattered: [4.0; 3],
