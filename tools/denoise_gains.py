@@ -3,8 +3,9 @@
 
 usage: python3 tools/denoise_gains.py SPP SEEDS [SCENE ...] [-- render flags...]
 
-For each scene (default: every scene with a reference in host-tests/data)
-and each seed S in 0..SEEDS: renders scenes/SCENE.scene with `micropt render
+For each scene (default: every scene with a reference in host-tests/data,
+and the denoiser's own test scenes, host-tests/data/denoise/NAME.scene,
+named denoise/NAME) and each seed S in 0..SEEDS: renders SCENE with `micropt render
 --uniform --spp SPP --seed S` at the reference's size, once raw and once
 with `--denoise` (the same samples), and prints the means over seeds of
 relMSE = mean((x - r)^2 / (r^2 + 0.01)) and MSE = mean((x - r)^2) against
@@ -28,18 +29,21 @@ def main():
     spp, seeds, scenes = int(args[0]), int(args[1]), args[2:]
     if not scenes:
         scenes = sorted(f[:-4] for f in os.listdir('host-tests/data') if f.endswith('.pfm') and '.' not in f[:-4])
+        scenes += sorted('denoise/' + f[:-6] for f in os.listdir('host-tests/data/denoise') if f.endswith('.scene'))
     exe = os.environ.get('MICROPT', 'target/release/micropt')
     print(f'{"scene":<18} {"relMSE raw":>10} {"denoised":>10} {"gain":>6} {"MSE raw":>10} {"denoised":>10} {"gain":>6} {"worst seed":>10}')
     with tempfile.TemporaryDirectory() as tmp:
         for scene in scenes:
             ref = read_pfm(f'host-tests/data/{scene}.pfm')
+            # the denoiser's own test scenes sit beside their references
+            path = f'host-tests/data/{scene}.scene' if scene.startswith('denoise/') else f'scenes/{scene}.scene'
             h, w, _ = ref.shape
             rel = {False: [], True: []}
             mse = {False: [], True: []}
             for s in range(seeds):
                 for dn in (False, True):
                     out = os.path.join(tmp, f'{s}{dn}.pfm')
-                    cmd = [exe, 'render', f'scenes/{scene}.scene', '--spp', str(spp), '--uniform', '--seed', str(s),
+                    cmd = [exe, 'render', path, '--spp', str(spp), '--uniform', '--seed', str(s),
                            '--size', f'{w}x{h}', '-o', out] + (['--denoise'] if dn else []) + extra
                     subprocess.run(cmd, capture_output=True, check=True)
                     x = read_pfm(out)
