@@ -218,14 +218,23 @@ pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
         }
     }
     #[cfg(feature = "checker")]
-    if textured {
+    if let Some(object) = textured {
         for [dx, dy] in PIXEL_CORNERS {
-            let (r, ..) = guide_along(renderer, renderer.camera().ray(fx + dx, fy + dy), false);
-            // another object at a corner is the object's edge, which the
-            // key test is for
-            if r.key == g.key {
-                blurred |= differ(r.albedo, g.albedo);
-                albedo += r.albedo;
+            let ray = renderer.camera().ray(fx + dx, fy + dy);
+            let a = if g.deltas == 0 {
+                // seen straight: the texture where the corner's ray meets
+                // the same object (whatever stands in front of it there:
+                // an object's edge is the key test's), no scene query
+                texture_along(renderer, &ray, object)
+            } else {
+                // behind mirrors and glass: the corner's ray followed as
+                // the centre's, where it reaches the same chain
+                let (r, ..) = guide_along(renderer, ray, false);
+                (r.key == g.key).then_some(r.albedo)
+            };
+            if let Some(a) = a {
+                blurred |= differ(a, g.albedo);
+                albedo += a;
                 seen += 1;
             }
         }
@@ -253,11 +262,15 @@ pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
     not(any(feature = "mirror", feature = "glass")),
     allow(unreachable_code, unused_mut, unused_variables)
 )]
-/// Also returns whether the surface is textured (its albedo changes over
-/// it) and, if `light` asks, whether it sees its brightest light
-/// ([`sees_brightest_light`]).
-fn guide_along(renderer: &Renderer<'_>, mut ray: Ray, light: bool) -> (Guide, bool, bool) {
-    const KEEP: (Guide, bool, bool) = (Guide::KEEP, false, false);
+/// Also returns the surface's object if it is textured (its albedo
+/// changes over it) and, if `light` asks, whether it sees its brightest
+/// light ([`sees_brightest_light`]).
+fn guide_along(
+    renderer: &Renderer<'_>,
+    mut ray: Ray,
+    light: bool,
+) -> (Guide, Option<ObjectId>, bool) {
+    const KEEP: (Guide, Option<ObjectId>, bool) = (Guide::KEEP, None, false);
     let scene = renderer.scene();
     let mut from = ObjectId::NONE;
     let mut tint = Color::ONE;
@@ -286,6 +299,7 @@ fn guide_along(renderer: &Renderer<'_>, mut ray: Ray, light: bool) -> (Guide, bo
                 flat: hit.object.as_plane().is_some(),
                 blurred: false,
             };
+            let textured = textured.then_some(hit.object);
             (g, textured, light && sees_brightest_light(scene, &hit, n))
         };
         let dir = match mat {
@@ -319,6 +333,24 @@ fn guide_along(renderer: &Renderer<'_>, mut ray: Ray, light: bool) -> (Guide, bo
         from = hit.object;
     }
     KEEP
+}
+
+/// The checker's albedo where `ray` meets `object` (a plane or a sphere),
+/// if it does and the object is a checker.
+#[cfg(feature = "checker")]
+fn texture_along(renderer: &Renderer<'_>, ray: &Ray, object: ObjectId) -> Option<Color> {
+    let scene = renderer.scene();
+    let hit = if let Some(i) = object.as_plane() {
+        let p = scene.planes.get(i)?;
+        p.hit(ray, p.intersect(ray, f32::INFINITY)?, object)
+    } else {
+        let s = scene.spheres.get(object.as_sphere()?)?;
+        s.hit(ray, s.intersect(ray, f32::INFINITY)?, object)
+    };
+    match scene.materials.get(usize::from(hit.material))? {
+        Material::Checker(c) => Some(c.albedo_at(hit.point, object.as_plane().map(|_| hit.normal))),
+        _ => None,
+    }
 }
 
 /// Lights the visibility guide compares (the first of the scene's list).
