@@ -258,9 +258,11 @@ impl CausticSample {
     };
 }
 
-/// A caustic path whose light cone's solid angle is less than this
-/// fraction of its solid angle at `x` concentrates the light more than
-/// twice: [`CausticSample::focused`].
+/// A caustic path whose `|dω/dω_x|` is below this brings the light to `x`
+/// concentrated (`1 / |dω/dω_x|` times what the light itself, seen over
+/// the same directions, would give): [`CausticSample::focused`]. A convex
+/// mirror never does (its paths spread the light: `|dω/dω_x| > 1`); a
+/// glass ball does near its axis.
 pub const FOCUSED_JAC: f32 = 1.0;
 
 /// Samples the light of the caustic spheres `list` that reaches `x`

@@ -129,9 +129,10 @@ pub struct Guide {
     /// Whether the surface is a plane (its normal the same at every
     /// point: pixels of the same key need no normal test).
     pub flat: bool,
-    /// Whether the pixel's samples see a blur of the surface's texture (a
-    /// thin lens out of focus over a checker): `albedo` is then the mean
-    /// over the lens points, too coarse to divide out, and the filter
+    /// Whether the pixel's samples see more than one albedo of the
+    /// surface's texture (a checker's edge inside the pixel, or a checker
+    /// out of focus behind a thin lens): `albedo` is then the mean of the
+    /// albedos the guide saw, too coarse to divide out, and the filter
     /// smooths the radiance itself, with other blurred pixels only.
     pub blurred: bool,
 }
