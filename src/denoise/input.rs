@@ -307,8 +307,7 @@ fn guide_along(
             Material::Diffuse(a) => return surface(*a, false),
             #[cfg(feature = "checker")]
             Material::Checker(c) => {
-                let albedo = c.albedo_at(hit.point, hit.object.as_plane().map(|_| hit.normal));
-                return surface(albedo, true);
+                return surface(c.albedo_at_hit(&hit), true);
             }
             #[cfg(feature = "metal")]
             Material::Metal(m) => {
@@ -349,7 +348,7 @@ fn texture_along(renderer: &Renderer<'_>, ray: &Ray, object: ObjectId) -> Option
         s.hit(ray, s.intersect(ray, f32::INFINITY)?, object)
     };
     match scene.materials.get(usize::from(hit.material))? {
-        Material::Checker(c) => Some(c.albedo_at(hit.point, object.as_plane().map(|_| hit.normal))),
+        Material::Checker(c) => Some(c.albedo_at_hit(&hit)),
         _ => None,
     }
 }

@@ -61,6 +61,13 @@ fn cell_parity(a: f32, size: f32) -> u32 {
 
 #[cfg(feature = "checker")]
 impl Checker {
+    /// The albedo where `hit` lies: on its plane, or on its sphere (the
+    /// solid checker).
+    #[inline]
+    pub fn albedo_at_hit(&self, hit: &crate::geometry::Hit) -> Color {
+        self.albedo_at(hit.point, hit.object.as_plane().map(|_| hit.normal))
+    }
+
     /// The albedo at point `p` of a plane with unit normal `plane_normal`,
     /// or of a sphere (`None`: the solid checker).
     #[inline]

@@ -191,9 +191,7 @@ impl Material {
             #[cfg(feature = "metal")]
             Material::Metal(m) => Scatter::Bsdf(Bsdf::Ggx(*m)),
             #[cfg(feature = "checker")]
-            Material::Checker(c) => Scatter::Bsdf(Bsdf::Lambert(
-                c.albedo_at(hit.point, hit.object.as_plane().map(|_| hit.normal)),
-            )),
+            Material::Checker(c) => Scatter::Bsdf(Bsdf::Lambert(c.albedo_at_hit(hit))),
             // a material this build left out: `SceneBuilder` rejects it, so
             // no scene holds one
             #[allow(unreachable_patterns)]
