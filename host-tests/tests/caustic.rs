@@ -169,6 +169,28 @@ fn glass_jacobian_matches_traced_differences() {
     }
     assert!(checked > 100, "{checked} paths checked");
 }
+/// A ball of material `ball` (radius 1, centre at height 1.2: sphere 0)
+/// over a white Lambertian ground (plane 0), under a sun of radiance 100
+/// and radius 5 high in the sky at 60° (sphere 1).
+fn ball_on_ground(ball: Material) -> micropt::Scene<8, 2, 4> {
+    let mut b = micropt::SceneBuilder::<8, 2, 4>::new();
+    let ground = b.material(Material::Diffuse(Color::splat(1.0))).unwrap();
+    let m = b.material(ball).unwrap();
+    let sun = b.material(Material::Light(Color::splat(100.0))).unwrap();
+    let spec = micropt::camera::CameraSpec::pinhole(
+        Vec3::new(0.0, 6.0, 3.0),
+        Vec3::ZERO,
+        Vec3::new(0.0, 1.0, 0.0),
+        30.0,
+    );
+    b.camera(spec).unwrap();
+    b.plane(Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), ground)
+        .unwrap();
+    b.sphere(Vec3::new(0.0, 1.2, 0.0), 1.0, m).unwrap();
+    b.sphere(Vec3::new(25.0, 43.3, 0.0), 5.0, sun).unwrap();
+    b.build().unwrap()
+}
+
 /// Law checked: the change of variables, summed over every root, with
 /// the partition at [`micropt::caustic::GLASS_JAC_MIN`]. At points on a ground under a
 /// glass ball in a high sun (in its shadow, around its focus, and
@@ -182,22 +204,7 @@ fn glass_jacobian_matches_traced_differences() {
 /// 10 % too large or too small fail it.
 #[test]
 fn glass_caustic_sample_estimates_what_cosine_sampling_finds() {
-    let mut b = micropt::SceneBuilder::<8, 2, 4>::new();
-    let ground = b.material(Material::Diffuse(Color::splat(1.0))).unwrap();
-    let glass = b.material(Material::Glass(1.5)).unwrap();
-    let sun = b.material(Material::Light(Color::splat(100.0))).unwrap();
-    let spec = micropt::camera::CameraSpec::pinhole(
-        Vec3::new(0.0, 6.0, 3.0),
-        Vec3::ZERO,
-        Vec3::new(0.0, 1.0, 0.0),
-        30.0,
-    );
-    b.camera(spec).unwrap();
-    b.plane(Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), ground)
-        .unwrap();
-    b.sphere(Vec3::new(0.0, 1.2, 0.0), 1.0, glass).unwrap();
-    b.sphere(Vec3::new(25.0, 43.3, 0.0), 5.0, sun).unwrap();
-    let scene = b.build().unwrap();
+    let scene = ball_on_ground(Material::Glass(1.5));
     let view = scene.view(-1.0);
     let list = [0u16];
     let c = Vec3::new(0.0, 1.2, 0.0);
@@ -299,22 +306,7 @@ fn a_glass_ball_focuses_its_caustic_and_a_mirror_ball_never_does() {
         .into_iter()
         .enumerate()
     {
-        let mut b = micropt::SceneBuilder::<8, 2, 4>::new();
-        let ground = b.material(Material::Diffuse(Color::splat(1.0))).unwrap();
-        let m = b.material(ball).unwrap();
-        let sun = b.material(Material::Light(Color::splat(100.0))).unwrap();
-        let spec = micropt::camera::CameraSpec::pinhole(
-            Vec3::new(0.0, 6.0, 3.0),
-            Vec3::ZERO,
-            Vec3::new(0.0, 1.0, 0.0),
-            30.0,
-        );
-        b.camera(spec).unwrap();
-        b.plane(Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), ground)
-            .unwrap();
-        b.sphere(Vec3::new(0.0, 1.2, 0.0), 1.0, m).unwrap();
-        b.sphere(Vec3::new(25.0, 43.3, 0.0), 5.0, sun).unwrap();
-        let scene = b.build().unwrap();
+        let scene = ball_on_ground(ball);
         let view = scene.view(-1.0);
         let n = Vec3::new(0.0, 1.0, 0.0);
         let mut next = numbers();
