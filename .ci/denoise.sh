@@ -7,8 +7,10 @@
 #
 # Per scene it records the instructions of each phase between the
 # firmware's marks (render: every pixel's samples into its moments;
-# denoise: guides, filters and choice into the framebuffer), the denoiser's
-# share of the render's, its instructions a pixel, flash and static RAM, in
+# denoise: guides, filters and choice, every pixel's colour; output: the
+# tone mapping into the framebuffer, which a raw frame runs too), the
+# denoiser's share of the render's, its instructions a pixel, flash and
+# static RAM, in
 # target/denoise/denoise.size, printing a diff against
 # firmware/expected/denoise.size (informational; `--bless` rewrites it).
 #
@@ -65,20 +67,20 @@ run() {
         fail "$name $size: the board's denoised image differs from the host's"
     local marks flash ram w h
     read -r -a marks <<<"$(sed -n 's/^marks: //p' "$OUT/$name-$size.icount")"
-    [ "${#marks[@]}" -ge 6 ] || fail "$name $size: expected 6 marks, got ${#marks[@]}"
+    [ "${#marks[@]}" -ge 7 ] || fail "$name $size: expected 7 marks, got ${#marks[@]}"
     read -r flash ram <<<"$(elf_figures "$ELF")"
-    local render=$((marks[3] - marks[2])) dn=$((marks[4] - marks[3]))
+    local render=$((marks[3] - marks[2])) dn=$((marks[4] - marks[3])) out=$((marks[5] - marks[4]))
     w=${size%x*}
     h=${size#*x}
-    printf '%-10s %-8s %10s %9s %9s %13s %11s %8s %7s\n' "$name" "$size" "$flash" "$ram" \
+    printf '%-10s %-8s %10s %9s %9s %13s %11s %8s %7s %10s\n' "$name" "$size" "$flash" "$ram" \
         "$(grep -o 'stack high-water [0-9]*' "$OUT/$name-$size.run" | grep -o '[0-9]*$')" \
         "$render" "$dn" "$((dn / (w * h)))" \
-        "$(awk -v d="$dn" -v r="$render" 'BEGIN { printf "%.2f%%", 100 * d / r }')" >>"$SIZES"
-    echo "$name $size: board = host; render $render, denoise $dn instructions"
+        "$(awk -v d="$dn" -v r="$render" 'BEGIN { printf "%.2f%%", 100 * d / r }')" "$out" >>"$SIZES"
+    echo "$name $size: board = host; render $render, denoise $dn, output $out instructions"
 }
 
-HEADER=$(printf '%-10s %-8s %10s %9s %9s %13s %11s %8s %7s' scene size flash static_ram stack \
-    insns_render insns_denoise per_px share)
+HEADER=$(printf '%-10s %-8s %10s %9s %9s %13s %11s %8s %7s %10s' scene size flash static_ram stack \
+    insns_render insns_denoise per_px share insns_output)
 if [ "${1:-}" != "" ]; then
     # the board's frame: all of SSRAM2 and 3 for the whole-frame moments
     SIZES=$OUT/frame-$1.size

@@ -117,18 +117,22 @@ const MOMENT_PIXELS: usize = if config::DENOISE && !config::DEMO {
 const DENOISE_COLUMNS: usize = if config::DENOISE { WIDTH } else { 0 };
 
 /// What `MICROPT_FW_DENOISE=1` adds to static RAM: every pixel's sample
-/// moments (so that the render and the denoiser are separate phases, each
-/// counted between its marks), and the denoiser's rings of rows (one
-/// `Column` a pixel of a row). A board that streams (renders each pixel as
-/// the rings need it: `denoise::denoise_with`) keeps only the rings.
+/// moments and denoised colour (so that the render, the denoiser and the
+/// tone mapping into the framebuffer are separate phases, each counted
+/// between its marks), and the denoiser's rings of rows (one `Column` a
+/// pixel of a row). A board that streams (renders each pixel as the rings
+/// need it and tone-maps each output pixel straight to the panel:
+/// `denoise::denoise_with`, `demo::render_pass`) keeps only the rings.
 struct DenoiseMemory {
     moments: [Moments; MOMENT_PIXELS],
+    colours: [micropt::Color; MOMENT_PIXELS],
     columns: [Column; DENOISE_COLUMNS],
 }
 
 impl DenoiseMemory {
     const EMPTY: Self = Self {
         moments: [Moments::ZERO; MOMENT_PIXELS],
+        colours: [micropt::Color::ZERO; MOMENT_PIXELS],
         columns: [Column::EMPTY; DENOISE_COLUMNS],
     };
 }
@@ -317,8 +321,9 @@ fn run(
         // after each)
         render_passes(&renderer, dn, fb, &mut clock)?
     } else if config::DENOISE {
-        // every pixel's SPP samples into its moments, then the denoiser
-        // into the framebuffer (the marks: rendered, denoised)
+        // every pixel's SPP samples into its moments, the denoiser, then
+        // the tone mapping into the framebuffer (the marks: rendered,
+        // denoised, tone-mapped)
         render_denoised(&renderer, dn, fb, &mut clock)?
     } else {
         // the framebuffer's error type is Infallible
@@ -400,8 +405,9 @@ fn render_passes(
 
 /// `MICROPT_FW_DENOISE=1`: `SPP` samples of every pixel into its moments
 /// (uniform: the denoiser's variance needs every pixel's samples), the
-/// `rendered` mark, the core's denoiser into the framebuffer, the
-/// `denoised` mark. The image is bit-identical with `micropt render SCENE
+/// `rendered` mark, the core's denoiser into every pixel's colour, the
+/// `denoised` mark, the tone mapping into the framebuffer (the output
+/// stage a raw frame runs too), the `tone-mapped` mark. The image is bit-identical with `micropt render SCENE
 /// --spp N --size WxH --seed S --denoise -o out.rgb565`. (Not inlined:
 /// its stack is not live in the other path.)
 #[inline(never)]
@@ -428,16 +434,27 @@ fn render_denoised(
         }
     }
     mark(); // every pixel's samples in its moments
+    let colours = &mut dn.colours;
     denoise::denoise_moments(
         renderer,
         &dn.moments,
         config::SPP,
         &mut dn.columns,
         |_, _, _| {},
-        |y, x, c| put(fb, x, y, c),
+        |y, x, c| {
+            if let Some(slot) = colours.get_mut(y as usize * WIDTH + x as usize) {
+                *slot = c;
+            }
+        },
     )
     .map_err(Error::Denoise)?;
-    mark(); // denoised into the framebuffer
+    mark(); // denoised: every pixel's colour
+    // the output stage a raw frame runs too (tone mapping, dithering,
+    // RGB565 into the framebuffer), counted apart from the denoiser
+    for (i, &c) in dn.colours.iter().enumerate() {
+        put(fb, (i % WIDTH) as u32, (i / WIDTH) as u32, c);
+    }
+    mark(); // tone-mapped into the framebuffer
     Ok(Summary {
         samples: (WIDTH * HEIGHT) as u64 * u64::from(config::SPP),
         stats,

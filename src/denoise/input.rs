@@ -371,6 +371,8 @@ fn sees_brightest_light(
 ) -> bool {
     let mut best = 0.0f32;
     let mut target = None;
+    // one light: the brightest if it lights the point at all (no score)
+    let alone = scene.lights.len() == 1;
     for &i in scene.lights.iter().take(GUIDE_LIGHTS) {
         let Some(s) = scene.spheres.get(usize::from(i)) else {
             continue;
@@ -387,6 +389,12 @@ fn sees_brightest_light(
         let cos_d = n.dot(d);
         if !(math::gt_zero(cos_d) && math::gt(d2, s.radius * s.radius)) {
             continue;
+        }
+        if alone {
+            if math::gt_zero(le.luminance()) && math::is_finite(d2) {
+                target = Some((i, d, d2));
+            }
+            break;
         }
         // L r² (n·d) / d³ = L r² cos θ / d²
         let e = le.luminance() * s.radius * s.radius * cos_d / (d2 * math::sqrt(d2));

@@ -209,8 +209,10 @@ struct Tap {
     across: [Color; WIDTHS.len()],
     normal: Vec3,
     spread: f32,
+    /// 0 where the pixel is not filtered (and is no tap); else its guide's
+    /// key with the lowest bit set, so that one comparison of keys also
+    /// tells that a tap is filtered.
     key: u32,
-    filtered: bool,
     flat: bool,
 }
 
@@ -220,9 +222,14 @@ impl Tap {
         normal: Vec3::ZERO,
         spread: 0.0,
         key: 0,
-        filtered: false,
         flat: false,
     };
+
+    /// Whether the pixel is filtered and is a tap.
+    #[inline(always)]
+    fn filtered(&self) -> bool {
+        self.key != 0
+    }
 }
 
 /// What only the pixel's own candidates read (kept from its fill to its
@@ -473,8 +480,7 @@ impl<'w> Denoiser<'w> {
                 // in the filters' domain (radiance over albedo), where the
                 // outlier test compares taps
                 spread: t.spread / albedo_square(t.albedo),
-                key: t.key,
-                filtered: t.filtered,
+                key: if t.filtered { t.key | 1 } else { 0 },
                 flat: t.flat,
             };
             *c = Centre {
@@ -499,27 +505,28 @@ impl<'w> Denoiser<'w> {
             let Some(g) = self.columns.get(x).and_then(|c| {
                 let t = c.taps.get(slot)?;
                 let p = c.centres.get(centre)?;
-                t.filtered
+                t.filtered()
                     .then(|| guide3(t, p, albedo_square(p.albedo), self.guards))
             }) else {
                 continue;
             };
             let mut sum = [Color::ZERO; WIDTHS.len()];
             let mut wsum = [0.0f32; WIDTHS.len()];
-            // the weight tables' entries of the taps within the row
+            // the weight tables' entries of the taps within the row, and
+            // those taps' columns (from x − RADIUS, or the row's start)
             let first = RADIUS.saturating_sub(x);
             let end = SIDE.min(w - x + RADIUS);
-            for i in first..end {
-                let Some(col) = self.columns.get(x + i - RADIUS) else {
-                    continue;
-                };
+            let lo = x.saturating_sub(RADIUS);
+            let cols = self.columns.get(lo..lo + (end - first)).unwrap_or(&[]);
+            let ws = wide.get(first..end).unwrap_or(&[]);
+            let ns = narrow.get(first..end).unwrap_or(&[]);
+            for ((col, &ww), &wn) in cols.iter().zip(ws).zip(ns) {
                 let Some(q) = col.taps.get(slot) else {
                     continue;
                 };
                 if !similar(&g, q) {
                     continue;
                 }
-                let (ww, wn) = (wide[i], narrow[i]);
                 sum[1] += col.shade * ww;
                 wsum[1] += ww;
                 // the narrow filter's weights are 0 beyond its reach
@@ -551,14 +558,13 @@ impl<'w> Denoiser<'w> {
     /// The candidates and their SURE for every pixel of row `y`.
     fn candidates(&mut self, y: usize) {
         let (w, h) = (self.width, self.height);
-        // the ring slots of rows y − RADIUS ..= y + RADIUS (None outside
-        // the image)
-        let rows: [Option<usize>; SIDE] = core::array::from_fn(|dy| {
-            (y + dy)
-                .checked_sub(RADIUS)
-                .filter(|&q| q < h)
-                .map(|q| q % RING_ROWS)
-        });
+        // the ring slots of rows y − RADIUS ..= y + RADIUS, and the range
+        // of them inside the image
+        let rows = Window {
+            slots: core::array::from_fn(|dy| (y + dy + RING_ROWS - RADIUS) % RING_ROWS),
+            first: RADIUS.saturating_sub(y),
+            end: SIDE.min(h - y + RADIUS),
+        };
         let (centre, kept) = (y % CENTRE_ROWS, y % CHOICE_KEPT);
         for col in self.columns.iter_mut() {
             candidate_at(col, &rows, centre, kept, &self.weights, self.guards);
@@ -589,13 +595,12 @@ impl<'w> Denoiser<'w> {
     fn choose(&mut self, y: usize, emit: &mut impl FnMut(u32, u32, Color)) {
         let h = self.height;
         // the ring slots of rows y − CHOICE_RADIUS ..= y + CHOICE_RADIUS
-        // (None outside the image)
-        let rows: [Option<usize>; CHOICE_ROWS] = core::array::from_fn(|dy| {
-            (y + dy)
-                .checked_sub(CHOICE_RADIUS)
-                .filter(|&q| q < h)
-                .map(|q| q % CHOICE_ROWS)
-        });
+        // inside the image
+        let slots: [usize; CHOICE_ROWS] =
+            core::array::from_fn(|dy| (y + dy + CHOICE_ROWS - CHOICE_RADIUS) % CHOICE_ROWS);
+        let rows = slots
+            .get(CHOICE_RADIUS.saturating_sub(y)..CHOICE_ROWS.min(h - y + CHOICE_RADIUS))
+            .unwrap_or(&[]);
         let kept = y % CHOICE_KEPT;
         for (x, col) in self.columns.iter().enumerate() {
             let Some(p) = col.choices.get(kept) else {
@@ -606,7 +611,7 @@ impl<'w> Denoiser<'w> {
                 continue;
             }
             let mut total = [0.0f32; WIDTHS.len() + 1];
-            for s in rows.iter().flatten().filter_map(|&r| col.row_sure.get(r)) {
+            for s in rows.iter().filter_map(|&r| col.row_sure.get(r)) {
                 for (t, s) in total.iter_mut().zip(s.iter()) {
                     *t += *s;
                 }
@@ -630,14 +635,22 @@ impl<'w> Denoiser<'w> {
     }
 }
 
+/// The ring slots of the rows a pixel's column pass reads, `RADIUS` either
+/// side of its own: those of `first..end` lie inside the image.
+struct Window {
+    slots: [usize; SIDE],
+    first: usize,
+    end: usize,
+}
+
 /// Pixel `col`'s candidates, their SURE (into `col.sure`) and its outputs
 /// (into `col.choices[kept]`), from the taps of the ring slots `rows`
-/// (`rows[RADIUS]` its own row's) and its centre data in slot `centre`:
-/// the column pass over the row passes' results.
+/// (`rows.slots[RADIUS]` its own row's) and its centre data in slot
+/// `centre`: the column pass over the row passes' results.
 #[inline(always)]
 fn candidate_at(
     col: &mut Column,
-    rows: &[Option<usize>; SIDE],
+    rows: &Window,
     centre: usize,
     kept: usize,
     weights: &[[f32; SIDE]; WIDTHS.len()],
@@ -651,7 +664,7 @@ fn candidate_at(
         ..
     } = col;
     let (Some(t), Some(p), Some(choice)) = (
-        rows[RADIUS].and_then(|r| taps.get(r)),
+        taps.get(rows.slots[RADIUS]),
         centres.get(centre),
         choices.get_mut(kept),
     ) else {
@@ -659,7 +672,7 @@ fn candidate_at(
         return;
     };
     let raw = p.scattered + p.direct;
-    if !t.filtered {
+    if !t.filtered() {
         *choice = Choice {
             out: [Color::ZERO, Color::ZERO, raw],
             consistent: [false; WIDTHS.len()],
@@ -673,8 +686,12 @@ fn candidate_at(
     let [narrow, wide] = weights;
     let p_albedo2 = albedo_square(p.albedo);
     let g = guide3(t, p, p_albedo2, guards);
-    for ((row, &ww), &wn) in rows.iter().zip(wide).zip(narrow) {
-        let Some(q) = row.and_then(|r| taps.get(r)) else {
+    let range = rows.first..rows.end;
+    let slots = rows.slots.get(range.clone()).unwrap_or(&[]);
+    let ws = wide.get(range.clone()).unwrap_or(&[]);
+    let ns = narrow.get(range).unwrap_or(&[]);
+    for ((&r, &ww), &wn) in slots.iter().zip(ws).zip(ns) {
+        let Some(q) = taps.get(r) else {
             continue;
         };
         if !similar(&g, q) {
@@ -776,9 +793,10 @@ fn guide3(t: &Tap, p: &Centre, albedo2: f32, guards: Guards) -> Guide3 {
 /// objects, normals within [`NORMAL_COS`] (a plane's are equal).
 #[inline(always)]
 fn similar(p: &Guide3, q: &Tap) -> bool {
-    // a plane's pixels of the same key share its normal: no test
-    q.filtered
-        && q.key == p.key
+    // p is filtered, so its key is not 0: equal keys say that q is
+    // filtered too; a plane's pixels of the same key share its normal: no
+    // test
+    q.key == p.key
         && !math::gt(q.spread, p.outlier)
         && (p.flat || !math::lt(p.normal.dot(q.normal), NORMAL_COS))
 }
