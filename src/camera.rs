@@ -263,6 +263,19 @@ impl Camera {
         1.0 / self.corner.length()
     }
 
+    /// The lens radius and its largest slope against the pinhole ray
+    /// (`aperture / focus`); zeros for a pinhole.
+    pub fn lens(&self) -> (f32, f32) {
+        #[cfg(feature = "lens")]
+        {
+            (self.aperture, self.slope)
+        }
+        #[cfg(not(feature = "lens"))]
+        {
+            (0.0, 0.0)
+        }
+    }
+
     /// The primary ray through film position (`fx`, `fy`) in pixel units:
     /// `(px + u, py + v)` for pixel (px, py) and an offset (u, v) in [0,1)².
     #[inline]
@@ -274,7 +287,6 @@ impl Camera {
     /// The film position (in pixel units, as [`Camera::ray`] takes it) of
     /// the pinhole ray through the point `p`, or `None` when `p` is not in
     /// front of the eye.
-    #[cfg(feature = "highlight")]
     pub fn film_of(&self, p: Vec3) -> Option<[f32; 2]> {
         let q = p - self.eye;
         let depth = q.dot(self.forward);

@@ -4,8 +4,9 @@
 
 use crate::camera::{Camera, CameraError};
 use crate::film::Tile;
-use crate::geometry::{Color, Ray};
+use crate::geometry::{Color, ObjectId, Ray};
 use crate::integrator::{self, Options, PathPlan, PathSum, Stats};
+use crate::math;
 use crate::sampler::{PixelSampler, SampleStream, pixel_key_of, seed_key};
 use crate::scene::bvh::BvhView;
 use crate::scene::{Scene, SceneView};
@@ -20,6 +21,11 @@ use crate::{
 /// film position, 1 the first bounce, 2 the first light sample), so a lens
 /// changes no other draw of a path.
 pub const LENS_PAIR: u32 = 3;
+
+/// What the render seed's key is XORed with for the rays that measure
+/// the lights a pixel sees ([`Renderer::lights_seen`]): samples
+/// independent of the render's.
+const COVERAGE_KEY: u64 = 0x6a09_e667_f3bc_c909;
 
 /// The largest sample component a render keeps: `f32::MAX / 2^20`, so that
 /// the sum of a pixel's samples (at most [`MAX_SPP`] =
@@ -314,6 +320,7 @@ impl<'a> Renderer<'a> {
             PathSum {
                 total: Color::ZERO,
                 direct: Color::ZERO,
+                seen: false,
             }
         }
     }
@@ -377,6 +384,96 @@ impl<'a> Renderer<'a> {
             c += sum * scale;
         });
         c
+    }
+
+    /// Whether pixel (x, y)'s samples carry the highlight estimator's images
+    /// of lights in mirrors (added to every sample, whatever its camera ray
+    /// meets).
+    pub fn has_highlights(&self, x: u32, y: u32) -> bool {
+        #[cfg(feature = "highlight")]
+        {
+            self.highlights_on().is_some_and(|h| !h.at(x, y).is_empty())
+        }
+        #[cfg(not(feature = "highlight"))]
+        {
+            let _ = (x, y);
+            false
+        }
+    }
+
+    /// The lights pixel (x, y) sees directly, measured with `count` camera
+    /// rays of their own (an Owen-scrambled Sobol net over the pixel, and
+    /// over the lens with one, keyed apart from the render's samples so
+    /// that the two are independent): the sum of the `L_e` of the lights
+    /// whose outside each ray meets first, and how many rays met one. Each
+    /// ray asks what the path tracer's camera ray asks of its first hit
+    /// ([`PathSum::seen`]). A pinhole's rays test the scene's emitters and
+    /// then whether anything blocks the way from the eye (the shadow
+    /// rays' lists: an object they leave out cannot lie between the eye and
+    /// a light); a lens's rays, which start off the eye, take the camera
+    /// ray's full query.
+    #[inline(never)]
+    pub fn lights_seen(&self, x: u32, y: u32, count: u32) -> (Color, u32) {
+        let sampler = PixelSampler::new(pixel_key_of(self.seed_key ^ COVERAGE_KEY, x, y));
+        let scene = &self.scene;
+        let (mut sum, mut hits) = (Color::ZERO, 0u32);
+        for i in 0..count {
+            let s = sampler.stream(i);
+            let [u, v] = s.stratified_2d(0);
+            let (fx, fy) = (x as f32 + u, y as f32 + v);
+            #[cfg(feature = "lens")]
+            if self.camera.has_lens() {
+                let ray = self.camera.lens_ray(fx, fy, s.stratified_2d(LENS_PAIR));
+                let spheres = if self.options.skip.view_culling {
+                    scene.tested_primary
+                } else {
+                    scene.tested
+                };
+                let Some(hit) = scene.closest_hit_among(&ray, ObjectId::NONE, spheres) else {
+                    continue;
+                };
+                if let Some(le) = scene
+                    .materials
+                    .get(usize::from(hit.material))
+                    .and_then(|m| m.emission())
+                    && math::lt_zero(ray.dir.dot(hit.normal))
+                    && math::gt_zero(le.max_component())
+                {
+                    sum += le;
+                    hits += 1;
+                }
+                continue;
+            }
+            let ray = self.camera.ray(fx, fy);
+            // the nearest light's outside along the ray
+            let mut near: Option<(f32, u16, Color)> = None;
+            for &l in scene.emitters {
+                let Some(sphere) = scene.spheres.get(usize::from(l)) else {
+                    continue;
+                };
+                let Some(le) = scene
+                    .materials
+                    .get(usize::from(sphere.material))
+                    .and_then(|m| m.emission())
+                else {
+                    continue;
+                };
+                let Some(t) = sphere.intersect(&ray, f32::INFINITY) else {
+                    continue;
+                };
+                let outside = math::lt_zero(ray.dir.dot(ray.at(t) - sphere.center));
+                if outside && near.is_none_or(|(tn, ..)| math::lt(t, tn)) {
+                    near = Some((t, l, le));
+                }
+            }
+            if let Some((t, l, le)) = near
+                && !scene.occluded(&ray, t, ObjectId::NONE, ObjectId::sphere(usize::from(l)))
+            {
+                sum += le;
+                hits += 1;
+            }
+        }
+        (sum, hits)
     }
 
     /// The camera ray of sample `index` of pixel (x, y): the ray that

@@ -21,9 +21,9 @@ use micropt::{Renderer, Stats};
 /// How many odd pixels core 1 may render ahead of core 0.
 const RING: usize = 64;
 
-/// A pixel's moments as bits: the scattered and direct sums, the square
-/// and the half sum.
-type Bits = [AtomicU32; 8];
+/// A pixel's moments as bits: the scattered and direct sums, the square,
+/// the half sum, the count of samples that saw a light.
+type Bits = [AtomicU32; 9];
 
 /// What the two cores share.
 pub struct Shared {
@@ -64,7 +64,7 @@ impl Shared {
             made: AtomicU32::new(0),
             taken: AtomicU32::new(0),
             paths: AtomicU32::new(0),
-            ring: [const { [const { AtomicU32::new(0) }; 8] }; RING],
+            ring: [const { [const { AtomicU32::new(0) }; 9] }; RING],
         }
     }
 
@@ -115,18 +115,20 @@ impl Shared {
             };
             let m = pixel_moments(renderer, spp, 2 * col + 1, y, &mut stats);
             let slot = &self.ring[k as usize % RING];
+            let f = |v: f32| v.to_bits();
             let bits = [
-                m.scattered[0],
-                m.scattered[1],
-                m.scattered[2],
-                m.direct[0],
-                m.direct[1],
-                m.direct[2],
-                m.square,
-                m.half,
+                f(m.scattered[0]),
+                f(m.scattered[1]),
+                f(m.scattered[2]),
+                f(m.direct[0]),
+                f(m.direct[1]),
+                f(m.direct[2]),
+                f(m.square),
+                f(m.half),
+                m.seen,
             ];
             for (a, v) in slot.iter().zip(bits) {
-                a.store(v.to_bits(), Ordering::Relaxed);
+                a.store(v, Ordering::Relaxed);
             }
             let paths = self.paths.load(Ordering::Relaxed);
             self.paths
@@ -202,6 +204,7 @@ impl Pixels for TwoCores {
             direct: [v(3), v(4), v(5)],
             square: v(6),
             half: v(7),
+            seen: slot[8].load(Ordering::Relaxed),
         };
         // the slot read before it is handed back
         s.taken.store(want + 1, Ordering::SeqCst);

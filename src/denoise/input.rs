@@ -21,7 +21,7 @@ pub const SHARP_ALPHA: f32 = 0.1;
 pub const GUIDE_DEPTH: u32 = 8;
 
 /// The running sums of one pixel's samples, split as the filter needs
-/// them: 32 bytes a pixel.
+/// them: 36 bytes a pixel.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Moments {
     /// Sum of the samples' scattered part (`total − direct`), which the
@@ -36,6 +36,9 @@ pub struct Moments {
     /// samples (index below `n / 2`): the two halves' difference estimates
     /// the variance of the mean as the samples are stratified.
     pub half: f32,
+    /// How many samples' camera rays hit a light themselves
+    /// ([`PathSum::seen`]).
+    pub seen: u32,
 }
 
 impl Moments {
@@ -45,6 +48,7 @@ impl Moments {
         direct: [0.0; 3],
         square: 0.0,
         half: 0.0,
+        seen: 0,
     };
 
     /// Adds one sample; `first_half`: its index is below `n / 2` of the
@@ -63,6 +67,7 @@ impl Moments {
         if first_half {
             self.half += l;
         }
+        self.seen += u32::from(s.seen);
     }
 
     /// The mean of `n` samples' totals (the raw image).

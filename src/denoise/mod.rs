@@ -44,10 +44,12 @@
 //! ([`denoise_moments`]).
 
 mod input;
+mod seen;
 #[cfg(test)]
 mod tests;
 
 pub use input::{GUIDE_DEPTH, Guide, GuideKind, Moments, SHARP_ALPHA, guide, pixel_moments};
+pub use seen::{LightEdges, SEEN_RAYS_PER_SAMPLE, SeenLights};
 
 use crate::geometry::{Color, Vec3};
 use crate::math;
@@ -497,6 +499,8 @@ impl<'w> Denoiser<'w> {
     /// The row pass of every pixel of row `y` (just filled): each filter's
     /// weighted mean of the similar pixels' shade within its reach, and its
     /// own share.
+    // out of line (once a row): its code does not depend on the fill's
+    #[inline(never)]
     fn across(&mut self, y: usize) {
         let (slot, centre) = (y % RING_ROWS, y % CENTRE_ROWS);
         let w = self.width;
@@ -556,6 +560,8 @@ impl<'w> Denoiser<'w> {
     }
 
     /// The candidates and their SURE for every pixel of row `y`.
+    // out of line (once a row): its code does not depend on the fill's
+    #[inline(never)]
     fn candidates(&mut self, y: usize) {
         let (w, h) = (self.width, self.height);
         // the ring slots of rows y − RADIUS ..= y + RADIUS, and the range
@@ -801,6 +807,35 @@ fn similar(p: &Guide3, q: &Tap) -> bool {
         && (p.flat || !math::lt(p.normal.dot(q.normal), NORMAL_COS))
 }
 
+/// Pixel (x, y) near a light's edge ([`LightEdges::near`]), of moments
+/// `m` (`n` samples): where the edge crosses it, its lights measured and
+/// the pixel left unfiltered ([`SeenLights::estimate`], `background` the
+/// radiance around the lights from the pixels before it; a pixel with the
+/// highlight estimator's images of lights, added to every sample, keeps
+/// its raw value); else `None`. Out of line: most pixels are near no
+/// light.
+#[inline(never)]
+fn edge_texel(
+    renderer: &crate::render::Renderer<'_>,
+    edges: &LightEdges,
+    m: &Moments,
+    n: u32,
+    x: u32,
+    y: u32,
+    background: &mut Color,
+) -> Option<Texel> {
+    let around = *background;
+    if let Some(b) = SeenLights::background(m, n) {
+        *background = b;
+    }
+    let edge = edges.crossed(renderer, x, y)?;
+    if renderer.has_highlights(x, y) {
+        return None;
+    }
+    let c = SeenLights::measure(renderer, x, y, n).estimate(m, n, edge, around)?;
+    Some(Texel::kept(c))
+}
+
 /// Denoises a whole frame whose samples are summed in `moments` (row-major,
 /// `n` samples a pixel), its guides computed by [`guide`] pixel by pixel
 /// and shown to `on_guide(x, y, guide)` (the host's guide images; a
@@ -861,11 +896,24 @@ pub fn denoise_while(
     go_on: impl FnMut(u32) -> bool,
 ) -> Result<bool, DenoiseError> {
     let mut d = Denoiser::new(renderer.width(), renderer.height(), columns)?;
+    let edges = LightEdges::new(renderer);
+    // the radiance around the lights, from the last pixel filled near one
+    // whose samples missed them (not from the pixel it serves: see
+    // `SeenLights::estimate`)
+    let mut background = Color::ZERO;
     Ok(d.run_while(
         |y, x| {
             let m = pixel(x, y);
             let g = guide(renderer, x, y);
             on_guide(x, y, &g);
+            // (below two samples the denoiser keeps every pixel as
+            // rendered, these too)
+            if n >= 2
+                && edges.near(x, y)
+                && let Some(t) = edge_texel(renderer, &edges, &m, n, x, y, &mut background)
+            {
+                return t;
+            }
             Texel::new(&m, n, &g)
         },
         emit,

@@ -32,6 +32,7 @@ fn wall(a: Color, s: Color, v: f32, key: u32) -> Texel {
         square: nf * l * l + v * nf * (nf - 1.0),
         // halves whose difference gives v: ((2h − Σ)/n)² = v
         half: 0.5 * (nf * l + nf * math::sqrt(v)),
+        ..Moments::ZERO
     };
     Texel::new(&m, n, &g)
 }
@@ -239,6 +240,7 @@ fn a_light_seen_directly_is_kept_and_the_rest_filtered() {
         direct: [16.0, 0.0, 0.0],
         square: 4.0,
         half: 2.0,
+        ..Moments::ZERO
     };
     assert!(!Texel::new(&m, 16, &g(0)).filtered);
     let t = Texel::new(&m, 16, &g(1));

@@ -62,9 +62,28 @@ pub(crate) use plan::PathPlan;
 use crate::geometry::{Color, Ray};
 use crate::sampler::SampleStream;
 use crate::scene::SceneView;
-pub use path::PathSum;
 use path::trace;
 use plan::Ctx;
+
+/// A path's estimate of the radiance along its camera ray, and the part
+/// of it that no non-delta vertex scattered.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathSum {
+    /// The estimate of `L` along the camera ray.
+    pub total: Color,
+    /// The part of `total` that emitters (and the background) give straight
+    /// to the camera or through mirrors and glass only: a light seen
+    /// directly, its image in a mirror ball or through a glass ball; and
+    /// the focused caustics sampled through a glass ball
+    /// ([`crate::caustic::CausticSample::focused`]). A denoiser
+    /// keeps it out of its filter (it is sharp, and most of it has little
+    /// noise); callers that do not split the estimate ignore it, and the
+    /// compiler drops its arithmetic.
+    pub direct: Color,
+    /// Whether the camera ray itself hit a light's outside (`total` is its
+    /// `L_e`): counted by the denoiser ([`crate::denoise::SeenLights`]).
+    pub seen: bool,
+}
 
 /// Which strategies estimate direct lighting at diffuse vertices.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

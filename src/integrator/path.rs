@@ -35,7 +35,7 @@ use super::nee::{direct, direct_window, nee, nee_window, whole_light};
 use super::plan::{Ctx, OneLight, PrevVertex, window_of};
 #[cfg(feature = "glass")]
 use super::split::{Branch, split_at_glass};
-use super::{Options, Strategy, power_heuristic};
+use super::{Options, PathSum, Strategy, power_heuristic};
 use crate::analysis::Listed;
 #[cfg(feature = "highlight")]
 use crate::caustic::{self, CausticSample, ROOTS};
@@ -160,23 +160,6 @@ struct Vertex<'h> {
     wo: Vec3,
     /// Whether lights entirely below the tangent plane are skipped here.
     horizon: bool,
-}
-
-/// A path's estimate of the radiance along its camera ray, and the part
-/// of it that no non-delta vertex scattered.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PathSum {
-    /// The estimate of `L` along the camera ray.
-    pub total: Color,
-    /// The part of `total` that emitters (and the background) give straight
-    /// to the camera or through mirrors and glass only: a light seen
-    /// directly, its image in a mirror ball or through a glass ball; and
-    /// the focused caustics sampled through a glass ball
-    /// ([`crate::caustic::CausticSample::focused`]). A denoiser
-    /// keeps it out of its filter (it is sharp, and most of it has little
-    /// noise); callers that do not split the estimate ignore it, and the
-    /// compiler drops its arithmetic.
-    pub direct: Color,
 }
 
 /// One path between its vertices.
@@ -397,6 +380,10 @@ impl<'a> PathState<'a> {
         if math::lt_zero(self.ray.dir.dot(hit.normal)) {
             let w = self.emission_weight::<MANY>(ctx, hit, opts);
             self.add(self.thr * le * w);
+            // the camera ray's own light: `finish` reads `from` at depth 0
+            if self.depth == 0 {
+                self.from = hit.object;
+            }
         }
     }
 
@@ -973,6 +960,8 @@ impl<'a> PathState<'a> {
         PathSum {
             total: self.l,
             direct: self.direct,
+            // ended at the camera ray's own light (see `emission`)
+            seen: self.depth == 0 && self.from != ObjectId::NONE,
         }
     }
 }
