@@ -448,14 +448,7 @@ impl<'a> Renderer<'a> {
             // the nearest light's outside along the ray
             let mut near: Option<(f32, u16, Color)> = None;
             for &l in scene.emitters {
-                let Some(sphere) = scene.spheres.get(usize::from(l)) else {
-                    continue;
-                };
-                let Some(le) = scene
-                    .materials
-                    .get(usize::from(sphere.material))
-                    .and_then(|m| m.emission())
-                else {
+                let Some((sphere, le)) = scene.sphere_light(l) else {
                     continue;
                 };
                 let Some(t) = sphere.intersect(&ray, f32::INFINITY) else {

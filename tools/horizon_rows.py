@@ -77,10 +77,14 @@ ground pixels below the horizon rows too (docs/mitsuba.md).
 """
 
 import argparse
+import os
 import math
 import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), 'mitsuba'))
+from common import read_pfm  # noqa: E402 (float64, rows top to bottom)
 
 
 # An upper bound of a sphere's radiant intensity in any direction, over
@@ -410,19 +414,6 @@ def integrate_row(cam, g, row, ny, nx, rng):
 def estimate(cam, g, row, ny, nx, seeds, seed0=1):
     runs = np.array([integrate_row(cam, g, row, ny, nx, np.random.default_rng(seed0 + s)) for s in range(seeds)])
     return runs.mean(axis=0), runs.std(axis=0, ddof=1) / math.sqrt(seeds)
-
-
-def read_pfm(path):
-    """A colour PFM as an array [y][x][channel], y down (PFM rows run up)."""
-    with open(path, "rb") as f:
-        assert f.readline().strip() == b"PF", path
-        dims = []
-        while len(dims) < 2:
-            dims += [int(x) for x in f.readline().split()]
-        scale = float(f.readline())
-        data = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4")
-    w, h = dims
-    return data.reshape(h, w, 3)[::-1].astype(np.float64)
 
 
 def fmt_diff(d, var, ex, bound, sky):

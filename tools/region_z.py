@@ -22,21 +22,13 @@ difference. Needs numpy.
 """
 
 import argparse
+import os
+import sys
 
 import numpy as np
 
-
-def read_pfm(path):
-    """A colour PFM as an array [y][x][channel], y down (PFM rows run up)."""
-    with open(path, "rb") as f:
-        assert f.readline().strip() == b"PF", path
-        dims = []
-        while len(dims) < 2:
-            dims += [int(x) for x in f.readline().split()]
-        scale = float(f.readline())
-        data = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4")
-    w, h = dims
-    return data.reshape(h, w, 3)[::-1].astype(np.float64)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), 'mitsuba'))
+from common import read_pfm  # noqa: E402 (float64, rows top to bottom)
 
 
 def groups(a, sa, b, sb, keep, key):

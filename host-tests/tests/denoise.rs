@@ -317,31 +317,9 @@ fn a_checker_far_out_of_focus_is_blurred() {
     assert!(sharp < 0.25, "in focus: {sharp} blurred");
 }
 
-/// A lamp of radius 0.5 over a floor (sphere-over-plane), a tiny light
-/// covering part of one pixel beside a large dim one, and a light out of
-/// focus behind a thin lens: the scenes whose lights' edges the tests
-/// below find and measure.
-const EDGE_SCENES: [(&str, &str); 3] = [
-    (
-        "lamp",
-        "camera 0 3 6   0 0 0   0 1 0   45\n\
-         material grey diffuse 0.5 0.5 0.5\n\
-         material lamp light 8 8 8\n\
-         plane 0 0 0   0 1 0   grey\n\
-         sphere 0 2 0   0.5   lamp\n",
-    ),
-    (
-        "tiny",
-        "camera 0 1 6   0 1 0   0 1 0   40\n\
-         material grey diffuse 0.5 0.5 0.5\n\
-         material tiny light 4000 3000 2000\n\
-         material big light 2 2 2\n\
-         plane 0 0 0   0 1 0   grey\n\
-         sphere 0.3 1.2 0   0.015   tiny\n\
-         sphere -1 1.5 -2   0.6   big\n",
-    ),
-    (
-        "lens",
+/// A light out of focus behind a thin lens, and a red ball at `ball`.
+fn lens_scene(ball: &str) -> String {
+    format!(
         "camera 0 1 6   0 1 0   0 1 0   40   0.15 3\n\
          background 0.2 0.3 0.4\n\
          material grey diffuse 0.5 0.5 0.5\n\
@@ -349,25 +327,47 @@ const EDGE_SCENES: [(&str, &str); 3] = [
          material lamp light 30 30 20\n\
          plane 0 0 0   0 1 0   grey\n\
          sphere 0.4 1.3 -2   0.5   lamp\n\
-         sphere -1.2 0.3 1   0.3   red\n",
-    ),
-];
+         sphere {ball}   0.3   red\n"
+    )
+}
 
-/// The lens scene with a ball out of focus in front of the light, hiding
-/// part of it: pixels where the ball's edge, not the light's, divides the
-/// samples keep their raw values, and the rays that measure the light
-/// must see the ball as the samples do.
-const OCCLUDED: (&str, &str) = (
-    "occluded",
-    "camera 0 1 6   0 1 0   0 1 0   40   0.15 3\n\
-     background 0.2 0.3 0.4\n\
-     material grey diffuse 0.5 0.5 0.5\n\
-     material red diffuse 0.7 0.2 0.1\n\
-     material lamp light 30 30 20\n\
-     plane 0 0 0   0 1 0   grey\n\
-     sphere 0.4 1.3 -2   0.5   lamp\n\
-     sphere 0 1 2   0.3   red\n",
-);
+/// A lamp of radius 0.5 over a floor (sphere-over-plane), a tiny light
+/// covering part of one pixel beside a large dim one, and a light out of
+/// focus behind a thin lens (a ball beside it): the scenes whose lights'
+/// edges the tests below find and measure.
+fn edge_scenes() -> Vec<(&'static str, String)> {
+    vec![
+        (
+            "lamp",
+            "camera 0 3 6   0 0 0   0 1 0   45\n\
+             material grey diffuse 0.5 0.5 0.5\n\
+             material lamp light 8 8 8\n\
+             plane 0 0 0   0 1 0   grey\n\
+             sphere 0 2 0   0.5   lamp\n"
+                .into(),
+        ),
+        (
+            "tiny",
+            "camera 0 1 6   0 1 0   0 1 0   40\n\
+             material grey diffuse 0.5 0.5 0.5\n\
+             material tiny light 4000 3000 2000\n\
+             material big light 2 2 2\n\
+             plane 0 0 0   0 1 0   grey\n\
+             sphere 0.3 1.2 0   0.015   tiny\n\
+             sphere -1 1.5 -2   0.6   big\n"
+                .into(),
+        ),
+        ("lens", lens_scene("-1.2 0.3 1")),
+    ]
+}
+
+/// The lens scene with the ball out of focus in front of the light,
+/// hiding part of it: pixels where the ball's edge, not the light's,
+/// divides the samples keep their raw values, and the rays that measure
+/// the light must see the ball as the samples do.
+fn occluded_scene() -> (&'static str, String) {
+    ("occluded", lens_scene("0 1 2"))
+}
 
 /// Every pixel of a `w × h` render of `text` at `n` samples: its moments.
 fn moments_of(
@@ -396,8 +396,8 @@ fn every_pixel_whose_samples_both_see_and_miss_a_light_is_on_an_edge() {
     // both rays that hit a light and rays that miss it is on an edge; and
     // tight: no more than 3 times as many pixels are
     use micropt::denoise::LightEdges;
-    for (name, text) in EDGE_SCENES {
-        let scene = micropt_host::render::parse_host(text).unwrap();
+    for (name, text) in edge_scenes() {
+        let scene = micropt_host::render::parse_host(&text).unwrap();
         let renderer = micropt::Renderer::new(&scene, 64, 48).unwrap().seed(9);
         let edges = LightEdges::new(&renderer);
         let n = 256;
@@ -430,8 +430,8 @@ fn the_measured_coverage_is_the_part_of_the_pixels_that_sees_a_light() {
     // the same area. Their variances are at most the binomial c(1 − c)/N
     // (the nets stratify), so the sums agree within 4 of those
     use micropt::denoise::{LightEdges, SeenLights};
-    for (name, text) in EDGE_SCENES.into_iter().chain([OCCLUDED]) {
-        let scene = micropt_host::render::parse_host(text).unwrap();
+    for (name, text) in edge_scenes().into_iter().chain([occluded_scene()]) {
+        let scene = micropt_host::render::parse_host(&text).unwrap();
         let renderer = micropt::Renderer::new(&scene, 64, 48).unwrap().seed(4);
         let edges = LightEdges::new(&renderer);
         let n = 1024;
@@ -466,8 +466,8 @@ fn a_lights_edge_is_measured_unbiased_and_quieter_than_sampled() {
     // their differences within 4), and their squared error against that
     // render is under a quarter of the raw image's
     use micropt::denoise::{LightEdges, SeenLights};
-    for (name, text) in EDGE_SCENES.into_iter().chain([OCCLUDED]) {
-        let scene = micropt_host::render::parse_host(text).unwrap();
+    for (name, text) in edge_scenes().into_iter().chain([occluded_scene()]) {
+        let scene = micropt_host::render::parse_host(&text).unwrap();
         let (w, h) = (48, 36);
         let job = |spp: u32, seed: u64| RenderJob {
             width: w,

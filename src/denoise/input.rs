@@ -379,14 +379,7 @@ fn sees_brightest_light(
     // one light: the brightest if it lights the point at all (no score)
     let alone = scene.lights.len() == 1;
     for &i in scene.lights.iter().take(GUIDE_LIGHTS) {
-        let Some(s) = scene.spheres.get(usize::from(i)) else {
-            continue;
-        };
-        let Some(le) = scene
-            .materials
-            .get(usize::from(s.material))
-            .and_then(|m| m.emission())
-        else {
+        let Some((s, le)) = scene.sphere_light(i) else {
             continue;
         };
         let d = s.center - hit.point;

@@ -109,14 +109,7 @@ impl LightEdges {
             if out.len >= EDGE_LIGHTS {
                 break;
             }
-            let Some(s) = scene.spheres.get(usize::from(i)) else {
-                continue;
-            };
-            let Some(emission) = scene
-                .materials
-                .get(usize::from(s.material))
-                .and_then(|m| m.emission())
-            else {
+            let Some((s, emission)) = scene.sphere_light(i) else {
                 continue;
             };
             let v = s.center - eye;

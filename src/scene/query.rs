@@ -179,6 +179,15 @@ fn listed<'a, T>(ids: &'a [u16], all: &'a [T]) -> impl Iterator<Item = (usize, &
 }
 
 impl<'a> SceneView<'a> {
+    /// Sphere `i` and its emitted radiance, if it is a light (as the
+    /// lists of lights and emitters hold them).
+    #[inline(always)]
+    pub fn sphere_light(&self, i: u16) -> Option<(&'a Sphere, Color)> {
+        let s = self.spheres.get(usize::from(i))?;
+        let le = self.materials.get(usize::from(s.material))?.emission()?;
+        Some((s, le))
+    }
+
     /// The tree, if the view has one and this build has its code (a
     /// firmware for a scene below the tree's threshold is built without).
     #[inline(always)]
