@@ -407,8 +407,9 @@ fn render_passes(
 /// (uniform: the denoiser's variance needs every pixel's samples), the
 /// `rendered` mark, the core's denoiser into every pixel's colour, the
 /// `denoised` mark, the tone mapping into the framebuffer (the output
-/// stage a raw frame runs too), the `tone-mapped` mark. The image is bit-identical with `micropt render SCENE
-/// --spp N --size WxH --seed S --denoise -o out.rgb565`. (Not inlined:
+/// stage a raw frame runs too), the `tone-mapped` mark. The image is
+/// bit-identical with `micropt render SCENE --spp N --size WxH --seed S
+/// --denoise -o out.rgb565`. (Not inlined:
 /// its stack is not live in the other path.)
 #[inline(never)]
 fn render_denoised(

@@ -418,17 +418,9 @@ impl<'a> Renderer<'a> {
         let scene = &self.scene;
         let (mut sum, mut hits) = (Color::ZERO, 0u32);
         for i in 0..count {
-            let s = sampler.stream(i);
-            let [u, v] = s.stratified_2d(0);
-            let (fx, fy) = (x as f32 + u, y as f32 + v);
-            #[cfg(feature = "lens")]
+            let ray = self.camera_ray_from(&mut sampler.stream(i), x, y, true);
             if self.camera.has_lens() {
-                let ray = self.camera.lens_ray(fx, fy, s.stratified_2d(LENS_PAIR));
-                let spheres = if self.options.skip.view_culling {
-                    scene.tested_primary
-                } else {
-                    scene.tested
-                };
+                let spheres = scene.camera_spheres(self.options.skip.view_culling);
                 let Some(hit) = scene.closest_hit_among(&ray, ObjectId::NONE, spheres) else {
                     continue;
                 };
@@ -444,7 +436,6 @@ impl<'a> Renderer<'a> {
                 }
                 continue;
             }
-            let ray = self.camera.ray(fx, fy);
             // the nearest light's outside along the ray
             let mut near: Option<(f32, u16, Color)> = None;
             for &l in scene.emitters {
@@ -483,7 +474,14 @@ impl<'a> Renderer<'a> {
     /// what it drew before lenses existed, so its images are unchanged.
     #[inline(always)]
     fn primary_ray(&self, s: &mut SampleStream<'_>, x: u32, y: u32) -> Ray {
-        let [u, v] = if self.options.stratified {
+        self.camera_ray_from(s, x, y, self.options.stratified)
+    }
+
+    /// [`Renderer::primary_ray`], stratified or not as asked (the
+    /// measuring rays of [`Renderer::lights_seen`] always are).
+    #[inline(always)]
+    fn camera_ray_from(&self, s: &mut SampleStream<'_>, x: u32, y: u32, stratified: bool) -> Ray {
+        let [u, v] = if stratified {
             s.stratified_2d(0)
         } else {
             s.next_2d()
@@ -491,7 +489,7 @@ impl<'a> Renderer<'a> {
         let (fx, fy) = (x as f32 + u, y as f32 + v);
         #[cfg(feature = "lens")]
         if self.camera.has_lens() {
-            let lens = if self.options.stratified {
+            let lens = if stratified {
                 s.stratified_2d(LENS_PAIR)
             } else {
                 s.next_2d()

@@ -234,11 +234,7 @@ impl<'a> PathState<'a> {
             from: ObjectId::NONE,
             #[cfg(feature = "highlight")]
             via: crate::highlight::NO_VIA,
-            spheres: if opts.skip.view_culling {
-                scene.tested_primary
-            } else {
-                scene.tested
-            },
+            spheres: scene.camera_spheres(opts.skip.view_culling),
             last: if opts.stratified {
                 Last::Eye
             } else {

@@ -188,6 +188,17 @@ impl<'a> SceneView<'a> {
         Some((s, le))
     }
 
+    /// The spheres a camera ray tests: those it can hit when culling by
+    /// the view ([`crate::Skip::view_culling`]), else every tested one.
+    #[inline(always)]
+    pub fn camera_spheres(&self, view_culling: bool) -> &'a [Listed] {
+        if view_culling {
+            self.tested_primary
+        } else {
+            self.tested
+        }
+    }
+
     /// The tree, if the view has one and this build has its code (a
     /// firmware for a scene below the tree's threshold is built without).
     #[inline(always)]
