@@ -26,6 +26,10 @@ pub const LENS_PAIR: u32 = 3;
 /// the lights a pixel sees ([`Renderer::lights_seen`]): samples
 /// independent of the render's.
 const COVERAGE_KEY: u64 = 0x6a09_e667_f3bc_c909;
+/// What it is XORed with for the rays that measure the mean albedo a
+/// pixel's samples see ([`Renderer::texture_ray`]).
+#[cfg(any(feature = "checker", feature = "lens"))]
+const TEXTURE_KEY: u64 = 0x3c6e_f372_fe94_f82b;
 
 /// The largest sample component a render keeps: `f32::MAX / 2^20`, so that
 /// the sum of a pixel's samples (at most [`MAX_SPP`] =
@@ -399,6 +403,27 @@ impl<'a> Renderer<'a> {
             let _ = (x, y);
             false
         }
+    }
+
+    /// The camera ray of the render's sample `index` of pixel (x, y): the
+    /// ray that sample's path starts from (the same film and lens
+    /// positions), so that what the sample saw first can be looked at
+    /// again without its path.
+    #[cfg(any(feature = "checker", feature = "lens"))]
+    pub fn sample_ray(&self, x: u32, y: u32, index: u32) -> Ray {
+        let sampler = PixelSampler::new(pixel_key_of(self.seed_key, x, y));
+        self.primary_ray(&mut sampler.stream(index), x, y)
+    }
+
+    /// Measuring ray `index` of pixel (x, y) for the mean albedo its
+    /// samples see (`crate::denoise`'s textures): stratified over the
+    /// pixel (and the lens, with one), an Owen-scrambled Sobol net keyed
+    /// apart from the render's samples and from the lights' measure, so
+    /// that the three are independent.
+    #[cfg(any(feature = "checker", feature = "lens"))]
+    pub fn texture_ray(&self, x: u32, y: u32, index: u32) -> Ray {
+        let sampler = PixelSampler::new(pixel_key_of(self.seed_key ^ TEXTURE_KEY, x, y));
+        self.camera_ray_from(&mut sampler.stream(index), x, y, true)
     }
 
     /// The lights pixel (x, y) sees directly, measured with `count` camera

@@ -131,6 +131,9 @@ pub struct Guide {
     pub key: u32,
     /// How many mirror and glass vertices came before the surface.
     pub deltas: u32,
+    /// Whether one of them was glass (the path tracer picks reflection or
+    /// refraction there at random; the guide follows the refraction).
+    pub glass: bool,
     /// Whether the surface is a plane (its normal the same at every
     /// point: pixels of the same key need no normal test).
     pub flat: bool,
@@ -150,6 +153,7 @@ impl Guide {
         normal: Vec3::ZERO,
         key: 0,
         deltas: 0,
+        glass: false,
         flat: false,
         blurred: false,
     };
@@ -165,7 +169,7 @@ const LENS_RIM: [[f32; 2]; 4] = [[0.999_999, 0.5], [0.0, 0.5], [0.5, 0.999_999],
 const BLUR_TOLERANCE: f32 = 1.0 / 64.0;
 /// What a blurred pixel's key is XORed with: it is filtered with blurred
 /// pixels of the same object chain only.
-const BLURRED_KEY: u32 = 0x5bd1_e995;
+pub(super) const BLURRED_KEY: u32 = 0x5bd1_e995;
 /// Where a textured pixel's albedo is looked at besides its centre (film
 /// offsets, pixels): near its four corners.
 #[cfg(feature = "checker")]
@@ -271,7 +275,7 @@ pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
 /// Also returns the surface's object if it is textured (its albedo
 /// changes over it) and, if `light` asks, whether it sees its brightest
 /// light ([`sees_brightest_light`]).
-fn guide_along(
+pub(super) fn guide_along(
     renderer: &Renderer<'_>,
     mut ray: Ray,
     light: bool,
@@ -280,6 +284,8 @@ fn guide_along(
     let scene = renderer.scene();
     let mut from = ObjectId::NONE;
     let mut tint = Color::ONE;
+    #[cfg_attr(not(feature = "glass"), allow(unused_mut))]
+    let mut glass = false;
     let mut key: u32 = 0x9e37_79b9;
     for deltas in 0..=GUIDE_DEPTH {
         let Some(hit) = scene.closest_hit(&ray, from) else {
@@ -302,6 +308,7 @@ fn guide_along(
                 normal: n,
                 key,
                 deltas,
+                glass,
                 flat: hit.object.as_plane().is_some(),
                 blurred: false,
             };
@@ -328,6 +335,7 @@ fn guide_along(
             }
             #[cfg(feature = "glass")]
             Material::Glass(ior) => {
+                glass = true;
                 // the refraction where there is one (u just below 1 picks
                 // it unless the reflection carries everything)
                 crate::material::sample_dielectric(ray.dir, hit.normal, *ior, 0.999_999).0
@@ -338,6 +346,19 @@ fn guide_along(
         from = hit.object;
     }
     KEEP
+}
+
+/// Whether a ray's [`guide_along`] key `key` is the chain of objects of
+/// guide `g` (whose key may also say that its surface sees its brightest
+/// light, and that it is blurred).
+#[cfg(any(feature = "checker", feature = "lens"))]
+pub(super) fn same_chain(g: &Guide, key: u32) -> bool {
+    let chain = if g.blurred {
+        g.key ^ BLURRED_KEY
+    } else {
+        g.key
+    };
+    key == chain || key == chain ^ SEES_LIGHT_KEY
 }
 
 /// The checker's albedo where `ray` meets `object` (a plane or a sphere),

@@ -47,9 +47,13 @@ mod input;
 mod seen;
 #[cfg(test)]
 mod tests;
+#[cfg(any(feature = "checker", feature = "lens"))]
+mod texture;
 
 pub use input::{GUIDE_DEPTH, Guide, GuideKind, Moments, SHARP_ALPHA, guide, pixel_moments};
 pub use seen::{LightEdges, SEEN_RAYS_PER_SAMPLE, SeenLights};
+#[cfg(any(feature = "checker", feature = "lens"))]
+pub use texture::{TEXTURE_RAYS_PER_SAMPLE, TextureRatio};
 
 use crate::geometry::{Color, Vec3};
 use crate::math;
@@ -160,7 +164,10 @@ impl Texel {
         } else {
             iid
         };
-        let lit_edge = g.deltas == 0 && math::gt_zero(direct.max_component());
+        // a light's edge: some camera rays hit a light itself (not a
+        // focused caustic or the background, which the direct part also
+        // holds)
+        let lit_edge = m.seen > 0;
         let filtered = g.kind == GuideKind::Surface
             && n >= 2
             && !lit_edge
@@ -911,6 +918,13 @@ pub fn denoise_while(
             if n >= 2
                 && edges.near(x, y)
                 && let Some(t) = edge_texel(renderer, &edges, &m, n, x, y, &mut background)
+            {
+                return t;
+            }
+            #[cfg(any(feature = "checker", feature = "lens"))]
+            if g.blurred
+                && let Some(t) =
+                    TextureRatio::measure(renderer, &g, x, y, n).and_then(|r| r.texel(&m, n, &g))
             {
                 return t;
             }

@@ -19,6 +19,7 @@ fn wall(a: Color, s: Color, v: f32, key: u32) -> Texel {
         normal: Vec3::new(0.0, 0.0, 1.0),
         key,
         deltas: 0,
+        glass: false,
         flat: true,
         blurred: false,
     };
@@ -223,15 +224,17 @@ fn an_emitters_pixels_are_untouched_and_never_a_tap() {
 
 #[test]
 fn a_light_seen_directly_is_kept_and_the_rest_filtered() {
-    // a wall pixel whose samples also saw a light (a light's edge) is kept
-    // whole; a pixel behind a mirror keeps its direct part and filters the
-    // rest
+    // a pixel whose samples also saw a light (a light's edge) is kept
+    // whole; one whose direct part is no light seen (a mirror's or a
+    // glass ball's images, a focused caustic, the background at an
+    // object's silhouette) keeps that part and filters the rest
     let g = |deltas| Guide {
         kind: GuideKind::Surface,
         albedo: Color::splat(0.5),
         normal: Vec3::new(0.0, 0.0, 1.0),
         key: 1,
         deltas,
+        glass: false,
         flat: true,
         blurred: false,
     };
@@ -240,12 +243,16 @@ fn a_light_seen_directly_is_kept_and_the_rest_filtered() {
         direct: [16.0, 0.0, 0.0],
         square: 4.0,
         half: 2.0,
-        ..Moments::ZERO
+        seen: 1,
     };
     assert!(!Texel::new(&m, 16, &g(0)).filtered);
-    let t = Texel::new(&m, 16, &g(1));
-    assert!(t.filtered);
-    assert_eq!(t.direct, Color::new(1.0, 0.0, 0.0));
+    assert!(!Texel::new(&m, 16, &g(1)).filtered);
+    let unseen = Moments { seen: 0, ..m };
+    for deltas in [0, 1] {
+        let t = Texel::new(&unseen, 16, &g(deltas));
+        assert!(t.filtered);
+        assert_eq!(t.direct, Color::new(1.0, 0.0, 0.0));
+    }
 }
 
 /// A wall whose true value has a ramp the filter blurs (bias), and noise

@@ -1,0 +1,114 @@
+//! Textures that a pixel's samples see more than one albedo of (a
+//! checker's edge inside the pixel, a checker out of focus behind a thin
+//! lens): the pixel's mean albedo, measured.
+//!
+//! Where a pixel's samples see several albedos, each sample's scattered
+//! radiance is about its albedo times the light that reaches the surface,
+//! and the pixel's noise is mostly which albedos its `n` samples happened
+//! to see. Each sample's first surface behind mirrors is found again (its
+//! camera ray, [`Renderer::sample_ray`], followed as the guide follows the
+//! centre's), so that the mean albedo `Ā` of exactly those samples is
+//! known; `4n` rays of their own ([`Renderer::texture_ray`]) measure the
+//! pixel's mean albedo `A` far more finely. The pixel's scattered mean `y`
+//! becomes the ratio estimate `A · y / Ā` (consistent: `Ā` and `A` both
+//! tend to the pixel's mean albedo), and `y / Ā`, the light on the
+//! surface without the texture's noise, is what the filter smooths, with
+//! the pixels of the same chain that see one albedo.
+
+use super::Texel;
+use super::input::{BLURRED_KEY, Guide, GuideKind, Moments, guide_along, same_chain};
+use crate::geometry::{Color, Ray};
+use crate::math;
+use crate::render::Renderer;
+
+/// Measuring rays for each of the render's samples of a pixel.
+pub const TEXTURE_RAYS_PER_SAMPLE: u32 = 4;
+
+/// The albedos a textured pixel's samples saw (each half of them) and its
+/// mean albedo, measured.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRatio {
+    /// The mean albedo of the first and of the second half of the
+    /// render's samples.
+    halves: [Color; 2],
+    /// The mean albedo of the measuring rays.
+    measured: Color,
+}
+
+impl TextureRatio {
+    /// Pixel (x, y)'s albedos, for its `n` samples and guide `g`: `None`
+    /// where the ratio does not apply (glass on the way, whose reflection
+    /// or refraction the path tracer draws at random; an odd `n`; a ray
+    /// that reaches another chain of objects than the guide's).
+    #[inline(never)]
+    pub fn measure(renderer: &Renderer<'_>, g: &Guide, x: u32, y: u32, n: u32) -> Option<Self> {
+        if g.glass || n < 2 || !n.is_multiple_of(2) {
+            return None;
+        }
+        let albedo = |ray: Ray| {
+            let (r, ..) = guide_along(renderer, ray, false);
+            (r.kind == GuideKind::Surface && same_chain(g, r.key)).then_some(r.albedo)
+        };
+        let mut halves = [Color::ZERO; 2];
+        for k in 0..n {
+            let half = halves.get_mut(usize::from(k >= n / 2))?;
+            *half += albedo(renderer.sample_ray(x, y, k))?;
+        }
+        let count = n.saturating_mul(TEXTURE_RAYS_PER_SAMPLE);
+        let mut measured = Color::ZERO;
+        for i in 0..count {
+            measured += albedo(renderer.texture_ray(x, y, i))?;
+        }
+        let per_half = 2.0 / n as f32;
+        Some(Self {
+            halves: [halves[0] * per_half, halves[1] * per_half],
+            measured: measured * (1.0 / count as f32),
+        })
+    }
+
+    /// The pixel's texel from its moments `m` (`n` samples, guide `g`):
+    /// its scattered mean the ratio estimate, its albedo the measured
+    /// one, filtered with the pixels of its chain that are not blurred.
+    /// `None` where the samples' albedo is too dark in a channel to divide
+    /// by.
+    pub fn texel(&self, m: &Moments, n: u32, g: &Guide) -> Option<Texel> {
+        let seen = (self.halves[0] + self.halves[1]) * 0.5;
+        let (la, lb) = (self.halves[0].luminance(), self.halves[1].luminance());
+        if math::lt(
+            math::min(math::min(seen.x, seen.y), seen.z),
+            super::MIN_ALBEDO,
+        ) || math::lt(math::min(la, lb), super::MIN_ALBEDO)
+        {
+            return None;
+        }
+        let base = Guide {
+            albedo: self.measured,
+            key: g.key ^ BLURRED_KEY,
+            blurred: false,
+            ..*g
+        };
+        let mut t = Texel::new(m, n, &base);
+        if !t.filtered {
+            return Some(t);
+        }
+        let ratio = Color::new(
+            self.measured.x / seen.x,
+            self.measured.y / seen.y,
+            self.measured.z / seen.z,
+        );
+        t.scattered *= ratio;
+        // the halves' difference, each half's light on the surface
+        // (its scattered luminance over its albedo's), times the measured
+        // albedo: the variance of the ratio estimate as it is sampled
+        let inv = 2.0 / n as f32;
+        let sum = Color::new(m.scattered[0], m.scattered[1], m.scattered[2]).luminance();
+        let (first, second) = (m.half * inv, (sum - m.half) * inv);
+        let lm = self.measured.luminance();
+        let d = lm * (first / la - second / lb) * 0.5;
+        t.variance = d * d;
+        let s = lm / seen.luminance();
+        t.spread *= s * s;
+        (t.scattered.is_finite() && math::is_finite(t.variance) && math::is_finite(t.spread))
+            .then_some(t)
+    }
+}
