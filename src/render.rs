@@ -28,7 +28,7 @@ pub const LENS_PAIR: u32 = 3;
 const COVERAGE_KEY: u64 = 0x6a09_e667_f3bc_c909;
 /// What it is XORed with for the rays that measure the mean albedo a
 /// pixel's samples see ([`Renderer::texture_ray`]).
-#[cfg(any(feature = "checker", feature = "lens"))]
+#[cfg(feature = "checker")]
 const TEXTURE_KEY: u64 = 0x3c6e_f372_fe94_f82b;
 
 /// The largest sample component a render keeps: `f32::MAX / 2^20`, so that
@@ -409,7 +409,7 @@ impl<'a> Renderer<'a> {
     /// ray that sample's path starts from (the same film and lens
     /// positions), so that what the sample saw first can be looked at
     /// again without its path.
-    #[cfg(any(feature = "checker", feature = "lens"))]
+    #[cfg(feature = "checker")]
     pub fn sample_ray(&self, x: u32, y: u32, index: u32) -> Ray {
         let sampler = PixelSampler::new(pixel_key_of(self.seed_key, x, y));
         self.primary_ray(&mut sampler.stream(index), x, y)
@@ -420,7 +420,7 @@ impl<'a> Renderer<'a> {
     /// pixel (and the lens, with one), an Owen-scrambled Sobol net keyed
     /// apart from the render's samples and from the lights' measure, so
     /// that the three are independent.
-    #[cfg(any(feature = "checker", feature = "lens"))]
+    #[cfg(feature = "checker")]
     pub fn texture_ray(&self, x: u32, y: u32, index: u32) -> Ray {
         let sampler = PixelSampler::new(pixel_key_of(self.seed_key ^ TEXTURE_KEY, x, y));
         self.camera_ray_from(&mut sampler.stream(index), x, y, true)

@@ -163,7 +163,8 @@ impl Guide {
 /// pixel to be filtered: the rim of the lens disk at four quarters (the
 /// concentric map's edge midpoints).
 #[cfg(feature = "lens")]
-const LENS_RIM: [[f32; 2]; 4] = [[0.999_999, 0.5], [0.0, 0.5], [0.5, 0.999_999], [0.5, 0.0]];
+pub(super) const LENS_RIM: [[f32; 2]; 4] =
+    [[0.999_999, 0.5], [0.0, 0.5], [0.5, 0.999_999], [0.5, 0.0]];
 
 /// Albedos that differ by more than this (in a channel) are different.
 const BLUR_TOLERANCE: f32 = 1.0 / 64.0;
@@ -173,7 +174,8 @@ pub(super) const BLURRED_KEY: u32 = 0x5bd1_e995;
 /// Where a textured pixel's albedo is looked at besides its centre (film
 /// offsets, pixels): near its four corners.
 #[cfg(feature = "checker")]
-const PIXEL_CORNERS: [[f32; 2]; 4] = [[-0.45, -0.45], [0.45, -0.45], [-0.45, 0.45], [0.45, 0.45]];
+pub(super) const PIXEL_CORNERS: [[f32; 2]; 4] =
+    [[-0.45, -0.45], [0.45, -0.45], [-0.45, 0.45], [0.45, 0.45]];
 
 /// Whether two albedos differ (by more than [`BLUR_TOLERANCE`] in a
 /// channel).
@@ -351,7 +353,7 @@ pub(super) fn guide_along(
 /// Whether a ray's [`guide_along`] key `key` is the chain of objects of
 /// guide `g` (whose key may also say that its surface sees its brightest
 /// light, and that it is blurred).
-#[cfg(any(feature = "checker", feature = "lens"))]
+#[cfg(feature = "checker")]
 pub(super) fn same_chain(g: &Guide, key: u32) -> bool {
     let chain = if g.blurred {
         g.key ^ BLURRED_KEY
@@ -361,19 +363,29 @@ pub(super) fn same_chain(g: &Guide, key: u32) -> bool {
     key == chain || key == chain ^ SEES_LIGHT_KEY
 }
 
-/// The checker's albedo where `ray` meets `object` (a plane or a sphere),
-/// if it does and the object is a checker.
+/// Where `ray` meets `object` (a plane or a sphere), if it does.
 #[cfg(feature = "checker")]
-fn texture_along(renderer: &Renderer<'_>, ray: &Ray, object: ObjectId) -> Option<Color> {
+pub(super) fn hit_on(
+    renderer: &Renderer<'_>,
+    ray: &Ray,
+    object: ObjectId,
+) -> Option<crate::geometry::Hit> {
     let scene = renderer.scene();
-    let hit = if let Some(i) = object.as_plane() {
+    Some(if let Some(i) = object.as_plane() {
         let p = scene.planes.get(i)?;
         p.hit(ray, p.intersect(ray, f32::INFINITY)?, object)
     } else {
         let s = scene.spheres.get(object.as_sphere()?)?;
         s.hit(ray, s.intersect(ray, f32::INFINITY)?, object)
-    };
-    match scene.materials.get(usize::from(hit.material))? {
+    })
+}
+
+/// The checker's albedo where `ray` meets `object` (a plane or a sphere),
+/// if it does and the object is a checker.
+#[cfg(feature = "checker")]
+pub(super) fn texture_along(renderer: &Renderer<'_>, ray: &Ray, object: ObjectId) -> Option<Color> {
+    let hit = hit_on(renderer, ray, object)?;
+    match renderer.scene().materials.get(usize::from(hit.material))? {
         Material::Checker(c) => Some(c.albedo_at_hit(&hit)),
         _ => None,
     }

@@ -47,12 +47,12 @@ mod input;
 mod seen;
 #[cfg(test)]
 mod tests;
-#[cfg(any(feature = "checker", feature = "lens"))]
+#[cfg(feature = "checker")]
 mod texture;
 
 pub use input::{GUIDE_DEPTH, Guide, GuideKind, Moments, SHARP_ALPHA, guide, pixel_moments};
 pub use seen::{LightEdges, SEEN_RAYS_PER_SAMPLE, SeenLights};
-#[cfg(any(feature = "checker", feature = "lens"))]
+#[cfg(feature = "checker")]
 pub use texture::{TEXTURE_RAYS_PER_SAMPLE, TextureRatio};
 
 use crate::geometry::{Color, Vec3};
@@ -921,7 +921,7 @@ pub fn denoise_while(
             {
                 return t;
             }
-            #[cfg(any(feature = "checker", feature = "lens"))]
+            #[cfg(feature = "checker")]
             if g.blurred
                 && let Some(t) =
                     TextureRatio::measure(renderer, &g, x, y, n).and_then(|r| r.texel(&m, n, &g))

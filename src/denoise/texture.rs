@@ -16,13 +16,23 @@
 //! the pixels of the same chain that see one albedo.
 
 use super::Texel;
-use super::input::{BLURRED_KEY, Guide, GuideKind, Moments, guide_along, same_chain};
-use crate::geometry::{Color, Ray};
+#[cfg(feature = "lens")]
+use super::input::LENS_RIM;
+use super::input::{
+    BLURRED_KEY, Guide, GuideKind, Moments, PIXEL_CORNERS, guide_along, hit_on, same_chain,
+    texture_along,
+};
+use crate::geometry::{Color, ObjectId, Ray, Vec3};
+use crate::material::Material;
 use crate::math;
 use crate::render::Renderer;
 
 /// Measuring rays for each of the render's samples of a pixel.
 pub const TEXTURE_RAYS_PER_SAMPLE: u32 = 4;
+/// A footprint wider than this many of the checker's squares (its pixel's
+/// corners and its lens's rim, where they meet the surface) sees a
+/// texture too fine to tell apart from pixel to pixel.
+const FINE: f32 = 2.0;
 
 /// The albedos a textured pixel's samples saw (each half of them) and its
 /// mean albedo, measured.
@@ -33,19 +43,37 @@ pub struct TextureRatio {
     halves: [Color; 2],
     /// The mean albedo of the measuring rays.
     measured: Color,
+    /// The difference of its two halves' luminance, over 2.
+    measured_spread: f32,
+    /// Whether the pixel's footprint spans more than [`FINE`] squares.
+    fine: bool,
 }
 
 impl TextureRatio {
     /// Pixel (x, y)'s albedos, for its `n` samples and guide `g`: `None`
     /// where the ratio does not apply (glass on the way, whose reflection
-    /// or refraction the path tracer draws at random; an odd `n`; a ray
-    /// that reaches another chain of objects than the guide's).
+    /// or refraction the path tracer draws at random; an odd `n`; no
+    /// texture at the centre; behind mirrors, a ray that reaches another
+    /// chain of objects than the guide's).
+    ///
+    /// Seen straight, each ray asks only where it meets the centre's
+    /// textured object (no scene query: a ray that meets something in
+    /// front of it counts the texture behind, for the samples and the
+    /// measure alike, so that the two still estimate the same mean).
     #[inline(never)]
     pub fn measure(renderer: &Renderer<'_>, g: &Guide, x: u32, y: u32, n: u32) -> Option<Self> {
         if g.glass || n < 2 || !n.is_multiple_of(2) {
             return None;
         }
+        let (fx, fy) = (x as f32 + 0.5, y as f32 + 0.5);
+        let centre = renderer.camera().ray(fx, fy);
+        let (_, object, _) = guide_along(renderer, centre, false);
+        let object = object?;
+        let fine = g.deltas == 0 && footprint_is_fine(renderer, object, fx, fy);
         let albedo = |ray: Ray| {
+            if g.deltas == 0 {
+                return texture_along(renderer, &ray, object);
+            }
             let (r, ..) = guide_along(renderer, ray, false);
             (r.kind == GuideKind::Surface && same_chain(g, r.key)).then_some(r.albedo)
         };
@@ -55,14 +83,18 @@ impl TextureRatio {
             *half += albedo(renderer.sample_ray(x, y, k))?;
         }
         let count = n.saturating_mul(TEXTURE_RAYS_PER_SAMPLE);
-        let mut measured = Color::ZERO;
+        let mut measured = [Color::ZERO; 2];
         for i in 0..count {
-            measured += albedo(renderer.texture_ray(x, y, i))?;
+            let half = measured.get_mut(usize::from(i >= count / 2))?;
+            *half += albedo(renderer.texture_ray(x, y, i))?;
         }
         let per_half = 2.0 / n as f32;
+        let per_ray = 1.0 / count as f32;
         Some(Self {
             halves: [halves[0] * per_half, halves[1] * per_half],
-            measured: measured * (1.0 / count as f32),
+            measured: (measured[0] + measured[1]) * per_ray,
+            measured_spread: (measured[0].luminance() - measured[1].luminance()) * per_ray,
+            fine,
         })
     }
 
@@ -105,10 +137,61 @@ impl TextureRatio {
         let (first, second) = (m.half * inv, (sum - m.half) * inv);
         let lm = self.measured.luminance();
         let d = lm * (first / la - second / lb) * 0.5;
-        t.variance = d * d;
+        let shade = sum * (1.0 / n as f32) / seen.luminance();
+        let e = shade * self.measured_spread;
+        t.variance = d * d + if self.fine { e * e } else { 0.0 };
         let s = lm / seen.luminance();
         t.spread *= s * s;
+        if self.fine {
+            t.albedo = Color::ONE;
+            t.key = g.key;
+        }
         (t.scattered.is_finite() && math::is_finite(t.variance) && math::is_finite(t.spread))
             .then_some(t)
     }
+}
+
+/// Whether the footprint of the pixel centred at film position (fx, fy)
+/// on `object` (where the rays through its corners and, with a lens, its
+/// lens's rim meet it) spans more than [`FINE`] of its checker's squares
+/// (a ray that misses it: the footprint is unbounded).
+fn footprint_is_fine(renderer: &Renderer<'_>, object: ObjectId, fx: f32, fy: f32) -> bool {
+    let camera = renderer.camera();
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    let mut size = f32::INFINITY;
+    let mut add = |ray: Ray| {
+        let Some(h) = hit_on(renderer, &ray, object) else {
+            return false;
+        };
+        if let Some(Material::Checker(c)) = renderer.scene().materials.get(usize::from(h.material))
+        {
+            size = c.size;
+        }
+        let p = h.point;
+        lo = Vec3::new(
+            math::min(lo.x, p.x),
+            math::min(lo.y, p.y),
+            math::min(lo.z, p.z),
+        );
+        hi = Vec3::new(
+            math::max(hi.x, p.x),
+            math::max(hi.y, p.y),
+            math::max(hi.z, p.z),
+        );
+        true
+    };
+    for [dx, dy] in PIXEL_CORNERS {
+        if !add(camera.ray(fx + dx, fy + dy)) {
+            return true;
+        }
+    }
+    #[cfg(feature = "lens")]
+    if camera.has_lens() {
+        for lens in LENS_RIM {
+            if !add(camera.lens_ray(fx, fy, lens)) {
+                return true;
+            }
+        }
+    }
+    math::gt((hi - lo).length(), FINE * size)
 }
