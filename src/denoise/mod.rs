@@ -164,10 +164,11 @@ impl Texel {
         } else {
             iid
         };
-        // a light's edge: some camera rays hit a light itself (not a
-        // focused caustic or the background, which the direct part also
-        // holds)
-        let lit_edge = m.seen > 0;
+        // a light's edge (some camera rays hit a light itself), or a
+        // surface seen straight with a direct part: a focused caustic
+        // (whose scattered part, near the focal spot, holds the broad
+        // paths' spikes) or the background at a silhouette
+        let lit_edge = m.seen > 0 || (g.deltas == 0 && math::gt_zero(direct.max_component()));
         let filtered = g.kind == GuideKind::Surface
             && n >= 2
             && !lit_edge
