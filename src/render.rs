@@ -27,7 +27,7 @@ pub const LENS_PAIR: u32 = 3;
 /// independent of the render's.
 const COVERAGE_KEY: u64 = 0x6a09_e667_f3bc_c909;
 /// What it is XORed with for the rays that measure the mean albedo a
-/// pixel's samples see ([`Renderer::texture_ray`]).
+/// pixel's samples see ([`Renderer::texture_rays`]).
 #[cfg(feature = "checker")]
 const TEXTURE_KEY: u64 = 0x3c6e_f372_fe94_f82b;
 
@@ -405,25 +405,25 @@ impl<'a> Renderer<'a> {
         }
     }
 
-    /// The camera ray of the render's sample `index` of pixel (x, y): the
-    /// ray that sample's path starts from (the same film and lens
-    /// positions), so that what the sample saw first can be looked at
-    /// again without its path.
+    /// The camera rays of the render's samples of pixel (x, y), by sample
+    /// index: the rays their paths start from (the same film and lens
+    /// positions), so that what a sample saw first can be looked at again
+    /// without its path.
     #[cfg(feature = "checker")]
-    pub fn sample_ray(&self, x: u32, y: u32, index: u32) -> Ray {
+    pub fn sample_rays(&self, x: u32, y: u32) -> impl Fn(u32) -> Ray + '_ {
         let sampler = PixelSampler::new(pixel_key_of(self.seed_key, x, y));
-        self.primary_ray(&mut sampler.stream(index), x, y)
+        move |index| self.primary_ray(&mut sampler.stream(index), x, y)
     }
 
-    /// Measuring ray `index` of pixel (x, y) for the mean albedo its
-    /// samples see (`crate::denoise`'s textures): stratified over the
-    /// pixel (and the lens, with one), an Owen-scrambled Sobol net keyed
-    /// apart from the render's samples and from the lights' measure, so
-    /// that the three are independent.
+    /// The rays that measure the mean albedo pixel (x, y)'s samples see
+    /// (`crate::denoise`'s textures), by index: stratified over the pixel
+    /// (and the lens, with one), an Owen-scrambled Sobol net keyed apart
+    /// from the render's samples and from the lights' measure, so that the
+    /// three are independent.
     #[cfg(feature = "checker")]
-    pub fn texture_ray(&self, x: u32, y: u32, index: u32) -> Ray {
+    pub fn texture_rays(&self, x: u32, y: u32) -> impl Fn(u32) -> Ray + '_ {
         let sampler = PixelSampler::new(pixel_key_of(self.seed_key ^ TEXTURE_KEY, x, y));
-        self.camera_ray_from(&mut sampler.stream(index), x, y, true)
+        move |index| self.camera_ray_from(&mut sampler.stream(index), x, y, true)
     }
 
     /// The lights pixel (x, y) sees directly, measured with `count` camera

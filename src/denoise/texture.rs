@@ -6,10 +6,11 @@
 //! radiance is about its albedo times the light that reaches the surface,
 //! and the pixel's noise is mostly which albedos its `n` samples happened
 //! to see. Each sample's first surface behind mirrors is found again (its
-//! camera ray, [`Renderer::sample_ray`], followed as the guide follows the
+//! camera ray, [`Renderer::sample_rays`], followed as the guide follows the
 //! centre's), so that the mean albedo `Ā` of exactly those samples is
-//! known; `4n` rays of their own ([`Renderer::texture_ray`]) measure the
-//! pixel's mean albedo `A` far more finely. The pixel's scattered mean `y`
+//! known; behind a thin lens `4n` rays of their own
+//! ([`Renderer::texture_rays`]) measure the pixel's mean albedo `A` far
+//! more finely (a pinhole's `A` is `Ā`). The pixel's scattered mean `y`
 //! becomes the ratio estimate `A · y / Ā` (consistent: `Ā` and `A` both
 //! tend to the pixel's mean albedo), and `y / Ā`, the light on the
 //! surface without the texture's noise, is what the filter smooths, with
@@ -35,7 +36,13 @@ use crate::material::Material;
 use crate::math;
 use crate::render::Renderer;
 
-/// Measuring rays for each of the render's samples of a pixel.
+/// Measuring rays for each of the render's samples of a pixel, behind a
+/// thin lens. A pinhole's pixel takes the albedo its own samples saw as
+/// its mean: they are a stratified net over the pixel alone, and
+/// measured with 1 to 4 rays a sample more, gloss and the room of the
+/// denoiser's test scenes came out the same (3.77x and 25.9x without, 3.79x
+/// and 26.4x with 4), where behind a lens the measure takes dof from
+/// 1.38x to 1.88x.
 pub const TEXTURE_RAYS_PER_SAMPLE: u32 = 4;
 /// A footprint wider than this many of the checker's squares (its pixel's
 /// corners and its lens's rim, where they meet the surface) sees a
@@ -85,18 +92,27 @@ impl TextureRatio {
             (r.kind == GuideKind::Surface && same_chain(g, r.key)).then_some(r.albedo)
         };
         let mut halves = [Color::ZERO; 2];
+        let sample = renderer.sample_rays(x, y);
         for k in 0..n {
             let half = halves.get_mut(usize::from(k >= n / 2))?;
-            *half += albedo(renderer.sample_ray(x, y, k))?;
+            *half += albedo(sample(k))?;
+        }
+        let per_half = 2.0 / n as f32;
+        let halves = [halves[0] * per_half, halves[1] * per_half];
+        if !renderer.camera().has_lens() {
+            return Some(Self {
+                halves,
+                measured: (halves[0] + halves[1]) * 0.5,
+            });
         }
         let count = n.saturating_mul(TEXTURE_RAYS_PER_SAMPLE);
         let mut measured = Color::ZERO;
+        let measuring = renderer.texture_rays(x, y);
         for i in 0..count {
-            measured += albedo(renderer.texture_ray(x, y, i))?;
+            measured += albedo(measuring(i))?;
         }
-        let per_half = 2.0 / n as f32;
         Some(Self {
-            halves: [halves[0] * per_half, halves[1] * per_half],
+            halves,
             measured: measured * (1.0 / count as f32),
         })
     }
