@@ -44,6 +44,12 @@ use crate::render::Renderer;
 /// and 26.4x with 4), where behind a lens the measure takes dof from
 /// 1.38x to 1.88x.
 pub const TEXTURE_RAYS_PER_SAMPLE: u32 = 4;
+/// The most samples a pixel for which the measure is taken: beyond, the
+/// albedo the samples saw is the mean (their coverage noise is then small
+/// beside what else is left, and 4 rays a sample cost about what the path
+/// costs: on dof at 256 spp the measure made the denoised render 36 %
+/// slower than the raw one for 3 % less MSE).
+pub const MEASURED_UP_TO: u32 = 64;
 /// A footprint wider than this many of the checker's squares (its pixel's
 /// corners and its lens's rim, where they meet the surface) sees a
 /// texture too fine to tell apart from pixel to pixel.
@@ -99,7 +105,7 @@ impl TextureRatio {
         }
         let per_half = 2.0 / n as f32;
         let halves = [halves[0] * per_half, halves[1] * per_half];
-        if !renderer.camera().has_lens() {
+        if !renderer.camera().has_lens() || n > MEASURED_UP_TO {
             return Some(Self {
                 halves,
                 measured: (halves[0] + halves[1]) * 0.5,
