@@ -53,7 +53,7 @@ mod texture;
 pub use input::{GUIDE_DEPTH, Guide, GuideKind, Moments, SHARP_ALPHA, guide, pixel_moments};
 pub use seen::{LightEdges, SEEN_RAYS_PER_SAMPLE, SeenLights};
 #[cfg(feature = "checker")]
-pub use texture::{FINE_SQUARES, TEXTURE_RAYS_PER_SAMPLE, TextureRatio};
+pub use texture::{FINE_SQUARES, MEASURED_UP_TO, TEXTURE_RAYS_PER_SAMPLE, TextureRatio};
 
 use crate::geometry::{Color, Vec3};
 use crate::math;

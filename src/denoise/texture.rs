@@ -18,11 +18,12 @@
 //!
 //! Only where pixels tell the squares apart: a footprint (where the
 //! pixel's corners' rays and its lens rim's meet the surface) wider than
-//! [`FINE_SQUARES`] squares sees a texture so fine that the image is smooth, and
-//! the pixel is smoothed as it is with the other blurred pixels, which
-//! averages the texture's noise over its neighbours at no cost (measured,
-//! its error as the ratio estimate's, 4 times fewer rays' worth, is what
-//! a flat image's filter does better than).
+//! [`FINE_SQUARES`] squares sees a texture so fine that the image is
+//! smooth there, and the pixel is smoothed as it is with the other
+//! blurred pixels, which averages the texture's noise over its
+//! neighbours at no cost (measured instead, its error would be the
+//! measured albedo's, which a flat image's filter beats). The measure is
+//! taken up to [`MEASURED_UP_TO`] samples a pixel.
 
 use super::Texel;
 #[cfg(feature = "lens")]
