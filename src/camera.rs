@@ -314,6 +314,83 @@ impl Camera {
         )
     }
 
+    /// The position on the lens that `lens` in [0,1)² maps to (as
+    /// [`Camera::lens_ray`] maps it); the eye for a pinhole.
+    #[cfg(feature = "highlight")]
+    pub fn lens_point(&self, lens: [f32; 2]) -> LensPoint {
+        #[cfg(feature = "lens")]
+        if self.has_lens() {
+            let (a, b, _) = sampler::concentric_disk(lens[0], lens[1], false);
+            return self.lens_at(a, b);
+        }
+        let _ = lens;
+        LensPoint::CENTRE
+    }
+
+    /// The position (`a`, `b`) on the unit disk scaled to the lens (the
+    /// lens' rim for `a² + b² = 1`); the eye for a pinhole.
+    #[cfg(feature = "highlight")]
+    pub fn lens_at(&self, a: f32, b: f32) -> LensPoint {
+        #[cfg(feature = "lens")]
+        if self.has_lens() {
+            return LensPoint {
+                offset: self.lens_u * a + self.lens_v * b,
+                turn: self.turn_u * a + self.turn_v * b,
+            };
+        }
+        let _ = (a, b);
+        LensPoint::CENTRE
+    }
+
+    /// Where the rays from lens position `lp` start.
+    #[cfg(feature = "highlight")]
+    #[inline(always)]
+    pub fn origin(&self, lp: &LensPoint) -> Vec3 {
+        self.eye + lp.offset
+    }
+
+    /// The primary ray through film position (`fx`, `fy`) from lens
+    /// position `lp`: [`Camera::lens_ray`]'s ray (for a pinhole, whose
+    /// only position is the eye, [`Camera::ray`]'s, bit for bit).
+    #[cfg(feature = "highlight")]
+    #[inline]
+    pub fn ray_at(&self, fx: f32, fy: f32, lp: &LensPoint) -> Ray {
+        let d = self.corner + self.dx * fx + self.dy * fy;
+        Ray::new(self.eye + lp.offset, (d - lp.turn).normalize())
+    }
+
+    /// The film position of the ray from lens position `lp` through the
+    /// point `p` ([`Camera::ray_at`]'s inverse), or `None` when `p` is not
+    /// in front of the lens. For a pinhole, [`Camera::film_of`].
+    #[cfg(feature = "highlight")]
+    pub fn film_at(&self, p: Vec3, lp: &LensPoint) -> Option<[f32; 2]> {
+        let q = p - (self.eye + lp.offset);
+        let depth = q.dot(self.forward);
+        if !(depth > 0.0) {
+            return None;
+        }
+        // the lens ray's direction is that of `d − turn`, `d` the film
+        // direction (forward component 1) and `turn` across the view
+        let off = q * (1.0 / depth) + lp.turn - self.corner;
+        Some([
+            off.dot(self.dx) / self.dx.length_squared(),
+            off.dot(self.dy) / self.dy.length_squared(),
+        ])
+    }
+
+    /// The derivatives of [`Camera::ray_at`]'s unit direction along the two
+    /// film axes (per pixel); its origin does not move.
+    #[cfg(feature = "highlight")]
+    pub fn dir_derivatives_at(&self, fx: f32, fy: f32, lp: &LensPoint) -> (Vec3, Vec3) {
+        let d = self.corner + self.dx * fx + self.dy * fy - lp.turn;
+        let inv = 1.0 / d.length();
+        let w = d * inv;
+        (
+            (self.dx - w * self.dx.dot(w)) * inv,
+            (self.dy - w * self.dy.dot(w)) * inv,
+        )
+    }
+
     /// The primary ray through film position (`fx`, `fy`) (as
     /// [`Camera::ray`]) from the lens position that `lens` in [0,1)² maps
     /// to, uniformly over the lens disk ([`crate::sampler::concentric_disk`]).
@@ -333,6 +410,26 @@ impl Camera {
         let turn = self.turn_u * a + self.turn_v * b;
         Ray::new(self.eye + offset, (d - turn).normalize())
     }
+}
+
+/// A position on a camera's lens ([`Camera::lens_point`]): the rays from
+/// it start at `eye + offset` and turn by `turn` (across the view, per unit
+/// of the film direction's forward component) to meet the plane of focus
+/// where the pinhole's rays do.
+#[cfg(feature = "highlight")]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LensPoint {
+    offset: Vec3,
+    turn: Vec3,
+}
+
+#[cfg(feature = "highlight")]
+impl LensPoint {
+    /// The lens' centre: the eye (a pinhole's only position).
+    pub const CENTRE: Self = Self {
+        offset: Vec3::ZERO,
+        turn: Vec3::ZERO,
+    };
 }
 
 #[cfg(test)]

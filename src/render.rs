@@ -12,6 +12,7 @@ use crate::scene::bvh::BvhView;
 use crate::scene::{Scene, SceneView};
 #[cfg(feature = "highlight")]
 use crate::{
+    camera::LensPoint,
     highlight::{self, Highlights, PixelHighlights},
     sampler::{mix64, sobol_2d, to_unit},
 };
@@ -30,6 +31,11 @@ const COVERAGE_KEY: u64 = 0x6a09_e667_f3bc_c909;
 /// pixel's samples see ([`Renderer::texture_rays`]).
 #[cfg(feature = "checker")]
 const TEXTURE_KEY: u64 = 0x3c6e_f372_fe94_f82b;
+
+/// What a highlight pair's key is XORed with for the lens positions of
+/// its estimates ([`crate::highlight::estimate`]).
+#[cfg(feature = "highlight")]
+const LENS_KEY: u64 = 0xbb67_ae85_84ca_a73b;
 
 /// The largest sample component a render keeps: `f32::MAX / 2^20`, so that
 /// the sum of a pixel's samples (at most [`MAX_SPP`] =
@@ -339,7 +345,7 @@ impl<'a> Renderer<'a> {
             // a pair's paths reach the light after one bounce, a chain's
             // after two or three: none when paths end sooner (nor does the
             // path tracer meet them)
-            if self.options.max_depth <= highlight::Highlight::bounces(p.via) {
+            if self.options.max_depth <= p.bounces() {
                 return;
             }
             // the pair's own scrambled Sobol points over the pixel's
@@ -356,7 +362,7 @@ impl<'a> Renderer<'a> {
             // a chain's image: estimated at a share of the samples,
             // weighted by its inverse (its first number decides, rescaled)
             let mut weight = 1.0;
-            if p.via != highlight::NO_VIA {
+            if p.is_chain() {
                 if !(rnd[0] < highlight::CHAIN_SHARE) {
                     return;
                 }
@@ -375,12 +381,26 @@ impl<'a> Renderer<'a> {
                 &highlight::LATTICE_STEPS[..]
             };
             let scale = weight / steps.len() as f32;
+            // with a lens, one lens position a sample for the pair's
+            // directions: its own Sobol points, keyed apart
+            let lp = if self.camera.has_lens() {
+                let key = key ^ LENS_KEY;
+                let u = if self.options.stratified {
+                    sobol_2d(index, key)
+                } else {
+                    let z = mix64(key ^ mix64(u64::from(index)));
+                    [to_unit(z as u32), to_unit((z >> 32) as u32)]
+                };
+                self.camera.lens_point(u)
+            } else {
+                LensPoint::CENTRE
+            };
             let mut sum = Color::ZERO;
             for (j, step) in steps.iter().enumerate() {
                 let lu = highlight::wrap(rnd[0] + j as f32 * (1.0 / highlight::LATTICE as f32));
                 let lv = highlight::wrap(rnd[1] + step);
                 if let Some(v) =
-                    highlight::estimate(&self.scene, &self.camera, p, x, y, [lu, lv], stats)
+                    highlight::estimate(&self.scene, &self.camera, p, x, y, &lp, [lu, lv], stats)
                 {
                     sum += v;
                 }

@@ -4,8 +4,10 @@
 //! of variables from film position to the last reflected direction
 //! (docs/highlights.md, "Chains").
 
-use super::{Highlight, Highlights, is_mirror, mirror_point, pair_distance, pixel_rect, rim_rect};
-use crate::camera::Camera;
+use super::{
+    Highlight, Highlights, is_mirror, lens_rect, mirror_point, pair_distance, pixel_rect, rim_rect,
+};
+use crate::camera::{Camera, LensPoint};
 use crate::geometry::{Color, ObjectId, Sphere, Vec3};
 use crate::material::Material;
 use crate::material::mirror::reflect;
@@ -32,7 +34,7 @@ impl Highlights {
         let mut best = [(0.0f32, 0u16, 0u16, 0u16); CHAINS];
         let mut best_min = 0;
         for (ai, a) in scene.spheres.iter().enumerate() {
-            let Some((kind, flag)) = first(scene, camera.eye(), a) else {
+            let Some((kind, flag)) = first(scene, camera, a) else {
                 continue;
             };
             if camera.film_of(a.center).is_none() {
@@ -99,8 +101,7 @@ impl Highlights {
             else {
                 continue;
             };
-            let (Some((kind, _)), Some(d)) = (first(scene, camera.eye(), a), pair_distance(m, l))
-            else {
+            let (Some((kind, _)), Some(d)) = (first(scene, camera, a), pair_distance(m, l)) else {
                 continue;
             };
             if let Some(pixels) =
@@ -166,22 +167,24 @@ pub(super) enum First {
     Glass(f32),
 }
 
-/// The first sphere `a` of a chain seen from `eye` and its [`VIA_INSIDE`]
-/// flag: a mirror; or a glass ball seen from at least `max(2, η / (2(η −
-/// 1)))` radii off its centre, with `1 < η < 3.8`: there the exit angle of
-/// the ray from the eye is monotone in its impact parameter and within
-/// (−π, π) ([`crate::material::ball::glass_paths`]), so one path from the eye
+/// The first sphere `a` of a chain seen by `camera` and its
+/// [`VIA_INSIDE`] flag: a mirror; or a glass ball seen from at least
+/// `max(2, η / (2(η − 1)))` radii off its centre, with `1 < η < 3.8`,
+/// from every point of the lens: there the exit angle of the ray from the
+/// eye is monotone in its impact parameter and within (−π, π)
+/// ([`crate::material::ball::glass_paths`]), so one path from the eye
 /// leaves the ball along each direction, and the chain's solve finds every
 /// path.
-pub(super) fn first(scene: &SceneView<'_>, eye: Vec3, a: &Sphere) -> Option<(First, u16)> {
+pub(super) fn first(scene: &SceneView<'_>, camera: &Camera, a: &Sphere) -> Option<(First, u16)> {
     #[cfg(not(feature = "glass"))]
-    let _ = eye;
+    let _ = camera;
     match scene.materials.get(a.material as usize)? {
         Material::Mirror(_) => Some((First::Mirror, 0)),
         #[cfg(feature = "glass")]
         Material::Glass(ior) => {
             let eta = *ior;
-            let d = (a.center - eye).length();
+            // the lens' nearest point
+            let d = (a.center - camera.eye()).length() - camera.lens().0;
             let single = eta > 1.0
                 && eta < 3.8
                 && d >= 2.0 * a.radius
@@ -189,6 +192,25 @@ pub(super) fn first(scene: &SceneView<'_>, eye: Vec3, a: &Sphere) -> Option<(Fir
             single.then_some((First::Glass(eta), VIA_INSIDE))
         }
         _ => None,
+    }
+}
+
+/// Where the ray from `eye` enters the glass ball `a` (`kind`, from
+/// [`first`]) on the one path that leaves it along `w`, or `None` where
+/// none does (or `kind` is a mirror).
+pub(super) fn glass_entry(eye: Vec3, kind: First, a: &Sphere, w: Vec3) -> Option<Vec3> {
+    match kind {
+        First::Mirror => {
+            let _ = (eye, a, w);
+            None
+        }
+        #[cfg(feature = "glass")]
+        First::Glass(eta) => {
+            use crate::material::ball::{GlassPath, ROOTS, glass_paths};
+            let mut paths = [GlassPath::NONE; ROOTS];
+            let found = glass_paths(eye, a.center, a.radius, eta, w, &mut paths);
+            paths.first().filter(|_| found == 1).map(|p| p.entry)
+        }
     }
 }
 
@@ -314,20 +336,22 @@ impl RayDiff {
     }
 }
 
-/// The path of the camera ray through film position (`fx`, `fy`) along the
-/// chain camera → `via` ([`Highlight::via`]) → mirror `mirror` → light
-/// `light`, traced as the path tracer traces it: the weight of the chain's
-/// vertices (the first mirror's and `mirror`'s tints, or the glass ball's
-/// two Fresnel transmittances and `mirror`'s tint) and `|dω/dx|` of the
-/// direction leaving `mirror`; `None` where the ray leaves the chain or
-/// meets something else first. The rays it traces are counted in `stats`.
+/// The path of the camera ray through film position (`fx`, `fy`) from
+/// lens position `lp` along the chain camera → `via` ([`Highlight::via`])
+/// → mirror `mirror` (none: straight on) → light `light`, traced as the
+/// path tracer traces it: the weight of the chain's vertices (the first
+/// mirror's tint, or the glass ball's two Fresnel transmittances, times
+/// `mirror`'s tint) and `|dω/dx|` of the direction leaving the last
+/// sphere; `None` where the ray leaves the chain or meets something else
+/// first. The rays it traces are counted in `stats`.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn trace_chain(
     scene: &SceneView<'_>,
     camera: &Camera,
+    lp: &LensPoint,
     via: u16,
-    mirror: u16,
+    mirror: Option<u16>,
     light: u16,
     fx: f32,
     fy: f32,
@@ -335,12 +359,8 @@ fn trace_chain(
 ) -> Option<(Color, f32)> {
     let ai = usize::from(via & !VIA_INSIDE);
     let a = scene.spheres.get(ai)?;
-    let m = scene.spheres.get(usize::from(mirror))?;
-    let Some(Material::Mirror(tint_m)) = scene.materials.get(m.material as usize) else {
-        return None;
-    };
-    let ray = camera.ray(fx, fy);
-    let (a1, a2) = camera.dir_derivatives(fx, fy);
+    let ray = camera.ray_at(fx, fy, lp);
+    let (a1, a2) = camera.dir_derivatives_at(fx, fy, lp);
     let mut diff = RayDiff {
         dp: [Vec3::ZERO; 2],
         dw: [a1, a2],
@@ -385,20 +405,31 @@ fn trace_chain(
         }
         _ => return None,
     };
+    // the mirror, if any, then the light
+    let (weight, last, wm) = match mirror {
+        None => (weight, out, w),
+        Some(mirror) => {
+            let m = scene.spheres.get(usize::from(mirror))?;
+            let Some(Material::Mirror(tint_m)) = scene.materials.get(m.material as usize) else {
+                return None;
+            };
+            stats.bounce_rays += 1;
+            let hm = scene.closest_hit_any(&out.spawn(w), out.object)?;
+            if hm.object != ObjectId::sphere(usize::from(mirror)) || !(w.dot(hm.normal) < 0.0) {
+                return None;
+            }
+            let wm = reflect(w, hm.normal);
+            diff = diff.through(w, hm.t, hm.normal, m.radius, None);
+            (weight * *tint_m, hm, wm)
+        }
+    };
     stats.bounce_rays += 1;
-    let hm = scene.closest_hit_any(&out.spawn(w), out.object)?;
-    if hm.object != ObjectId::sphere(usize::from(mirror)) || !(w.dot(hm.normal) < 0.0) {
-        return None;
-    }
-    let wm = reflect(w, hm.normal);
-    diff = diff.through(w, hm.t, hm.normal, m.radius, None);
-    stats.bounce_rays += 1;
-    let on = scene.closest_hit_any(&hm.spawn(wm), hm.object)?;
+    let on = scene.closest_hit_any(&last.spawn(wm), last.object)?;
     if on.object != ObjectId::sphere(usize::from(light)) || !(wm.dot(on.normal) < 0.0) {
         return None;
     }
     let jac = diff.jacobian(wm);
-    (jac > 0.0).then_some((weight * *tint_m, jac))
+    (jac > 0.0).then_some((weight, jac))
 }
 
 /// The film area (pixels²) of the image of light `li` through the chain
@@ -416,11 +447,22 @@ fn chain_area(
     axis: Vec3,
 ) -> Option<f32> {
     let (seen, _, _) = chain_points(camera.eye(), first, a, m, axis, None)?;
-    let [fx, fy] = camera.film_of(seen)?;
+    let lp = LensPoint::CENTRE;
+    let [fx, fy] = camera.film_at(seen, &lp)?;
     if !(fx >= 0.0 && fy >= 0.0 && fx < camera.width() as f32 && fy < camera.height() as f32) {
         return None;
     }
-    let (_, jac) = trace_chain(scene, camera, via, mi, li, fx, fy, &mut Stats::default())?;
+    let (_, jac) = trace_chain(
+        scene,
+        camera,
+        &lp,
+        via,
+        Some(mi),
+        li,
+        fx,
+        fy,
+        &mut Stats::default(),
+    )?;
     let d2 = (l.center - m.center).length_squared();
     let reach = l.radius + m.radius;
     // the cone's solid angle, 2π (1 − cos θ) ≈ π sin² θ for a narrow cone
@@ -436,13 +478,15 @@ fn chain_rect(
     l: &Sphere,
     d: f32,
 ) -> Option<[f32; 4]> {
-    let eye = camera.eye();
-    // the rim's solves start from the axis's
-    let axis = (l.center - m.center) * (1.0 / d);
-    let (_, _, start) = chain_points(eye, first, a, m, axis, None)?;
-    rim_rect(m, l, d, CHAIN_RIM, |w| {
-        let (seen, _, _) = chain_points(eye, first, a, m, w, Some(start))?;
-        camera.film_of(seen)
+    lens_rect(camera, |lp| {
+        let eye = camera.origin(&lp);
+        // the rim's solves start from the axis's
+        let axis = (l.center - m.center) * (1.0 / d);
+        let (_, _, start) = chain_points(eye, first, a, m, axis, None)?;
+        rim_rect(m, l, d, CHAIN_RIM, |w| {
+            let (seen, _, _) = chain_points(eye, first, a, m, w, Some(start))?;
+            camera.film_at(seen, &lp)
+        })
     })
 }
 
@@ -450,10 +494,12 @@ fn chain_rect(
 /// is a small fraction of a pixel, and the bound's margin (twice the
 /// largest step between neighbours) is most of the rectangle.
 const CHAIN_RIM: usize = 8;
-/// The chain part of [`estimate`] for pair `p` (camera → `p.via` → mirror
-/// `m` → light) and the sampled direction `w` leaving `m`: the chain's
-/// weight over `|dω/dx|` ([`trace_chain`]) when its film position lies in
-/// pixel `px`, else `None`.
+/// The part of [`estimate`] for pair `p` through a glass ball or a chain
+/// (camera → `p.via` → mirror `m`, or the ball `m` itself, → light) from
+/// lens position `lp` and the sampled direction `w` leaving `m`: the
+/// path's weight over `|dω/dx|` ([`trace_chain`]) when its film position
+/// lies in pixel `px`, else `None`.
+#[allow(clippy::too_many_arguments)]
 #[inline(never)]
 pub(super) fn estimate_chain(
     scene: &SceneView<'_>,
@@ -462,16 +508,22 @@ pub(super) fn estimate_chain(
     m: &Sphere,
     w: Vec3,
     px: [u32; 2],
+    lp: &LensPoint,
     stats: &mut Stats,
 ) -> Option<Color> {
     let a = scene.spheres.get(usize::from(p.via & !VIA_INSIDE))?;
-    let (kind, _) = first(scene, camera.eye(), a)?;
-    let (seen, _, _) = chain_points(camera.eye(), kind, a, m, w, None)?;
-    let [fx, fy] = camera.film_of(seen)?;
+    let (kind, _) = first(scene, camera, a)?;
+    let eye = camera.origin(lp);
+    let (seen, mirror) = if p.through_glass() {
+        (glass_entry(eye, kind, a, w)?, None)
+    } else {
+        (chain_points(eye, kind, a, m, w, None)?.0, Some(p.mirror))
+    };
+    let [fx, fy] = camera.film_at(seen, lp)?;
     let (x0, y0) = (px[0] as f32, px[1] as f32);
     if !(fx >= x0 && fx < x0 + 1.0 && fy >= y0 && fy < y0 + 1.0) {
         return None;
     }
-    let (weight, jac) = trace_chain(scene, camera, p.via, p.mirror, p.light, fx, fy, stats)?;
+    let (weight, jac) = trace_chain(scene, camera, lp, p.via, mirror, p.light, fx, fy, stats)?;
     Some(weight * (1.0 / jac))
 }

@@ -1,35 +1,42 @@
-//! Highlights: the images of lights in mirror spheres, sampled from the
-//! light's side (feature `highlight`).
+//! Highlights: the images of lights in mirror spheres and through glass
+//! balls, sampled from the light's side (feature `highlight`).
 //!
 //! A camera ray that meets a mirror sphere and then a light carries the
-//! light's radiance times the mirror's tint. When the light is small and
-//! far, its image in a convex mirror is a small fraction of a pixel (a sun
-//! in a ball of a tenth of a unit, seen across a field, covers about 1 % of
-//! a pixel), which film sampling finds only by chance: it is most of the
-//! error of such a pixel, and it falls as 1/N at best.
+//! light's radiance times the mirror's tint; one that passes through a
+//! glass ball (in and out) and then meets a light, the radiance times the
+//! two Fresnel transmittances. When the light is small and far, its image
+//! in a convex mirror is a small fraction of a pixel (a sun in a ball of a
+//! tenth of a unit, seen across a field, covers about 1 % of a pixel), and
+//! through a ball a few pixels at most, which film sampling finds only by
+//! chance: it is most of the error of such a pixel, and it falls as 1/N at
+//! best.
 //!
-//! For a pinhole camera this module estimates that part of a pixel's
-//! integral another way. It samples the direction ω of the reflected ray
-//! uniformly in the cone, around the line from the mirror's centre to the
-//! light's, of every direction in which a ray from a point of the mirror can
-//! meet the light (half-angle `asin((r_light + r_mirror) / distance)`), and
-//! finds the point of the mirror whose reflection of the eye's ray leaves
-//! along ω (one root: see [`mirror_point`]). The film position of that point
-//! is a sample with density `p(ω) · |dω/dx|` (the Jacobian of the film to
-//! reflected-direction map, from the derivatives of the camera ray and of
-//! the sphere's normal); a sample inside the pixel whose camera ray meets
-//! the mirror first and whose reflected ray meets the light first adds
-//! `tint · L_e / (p(ω) |dω/dx|)`. The path tracer leaves out the emission
-//! that a camera path meets right after such a mirror (`covers`), so each
+//! This module estimates that part of a pixel's integral another way. It
+//! samples the direction ω of the ray leaving the sphere uniformly in the
+//! cone, around the line from the sphere's centre to the light's, of every
+//! direction in which a ray from a point of the sphere can meet the light
+//! (half-angle `asin((r_light + r_sphere) / distance)`), and finds the point
+//! of the mirror whose reflection of the eye's ray leaves along ω (one
+//! root: see [`mirror_point`]), or the one path from the eye through the
+//! ball that leaves along ω. The film position of that point is a sample
+//! with density `p(ω) · |dω/dx|` (the Jacobian of the film to
+//! leaving-direction map, from the derivatives of the camera ray and of the
+//! sphere's normal); a sample inside the pixel whose camera ray meets the
+//! sphere first and whose leaving ray meets the light first adds
+//! `weight · L_e / (p(ω) |dω/dx|)`. With a thin lens the eye is a lens
+//! position, one a sample ([`crate::camera::LensPoint`]): for a fixed lens
+//! position the film maps to rays as a pinhole's does, and the lens
+//! position's density is the path tracer's. The path tracer leaves out the
+//! emission that a camera path meets along such a path (`covers`), so each
 //! part of the integral is estimated once: the two are unbiased together.
 //!
-//! A pair (mirror, light) gets this estimator when the light is at least as
-//! large as the mirror, so that a sampled direction meets the light with
+//! A pair (sphere, light) gets this estimator when the light is at least as
+//! large as the sphere, so that a sampled direction meets the light with
 //! probability at least a quarter (`(r_l / (r_l + r_m))²`), and its cone is
 //! narrow (sine of the half-angle at most [`SIN_MAX`]): a large light's
 //! image is large, and film sampling finds it.
 
-use crate::camera::Camera;
+use crate::camera::{Camera, LensPoint};
 use crate::geometry::{Color, ObjectId, Sphere, Vec3};
 use crate::light;
 use crate::material::Material;
@@ -93,11 +100,13 @@ pub fn wrap(v: f32) -> f32 {
 /// its own list; a pixel in more tests every pair per sample.
 pub const PIXEL_PAIRS: usize = 8;
 
-/// One (mirror sphere, light sphere) pair and the pixels the mirror's image
-/// can touch.
+/// One (mirror or glass sphere, light sphere) pair and the pixels the
+/// light's image in it can touch.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Highlight {
-    /// Scene index of the mirror sphere.
+    /// Scene index of the sphere the path leaves for the light: a mirror,
+    /// or a glass ball seen straight from the camera (then `via` is the
+    /// same ball with [`VIA_INSIDE`]: [`Highlight::through_glass`]).
     pub mirror: u16,
     /// Scene index of the light sphere.
     pub light: u16,
@@ -125,15 +134,30 @@ impl Highlight {
     };
 
     /// The bounces of the pair's paths before they meet the light: 1 in a
-    /// mirror, 2 through a chain of two mirrors, 3 through a glass ball
-    /// and a mirror.
+    /// mirror, 2 through a glass ball (in and out) or a chain of two
+    /// mirrors, 3 through a glass ball and a mirror.
     #[inline(always)]
-    pub fn bounces(via: u16) -> u32 {
-        match via {
+    pub fn bounces(&self) -> u32 {
+        match self.via {
             NO_VIA => 1,
-            v if v & VIA_INSIDE != 0 => 3,
+            v if v & VIA_INSIDE != 0 => 3 - u32::from(self.through_glass()),
             _ => 2,
         }
+    }
+
+    /// Whether the pair is a light seen through a glass ball straight from
+    /// the camera (`via` is the ball, passed through, and `mirror` the
+    /// ball itself).
+    #[inline(always)]
+    pub fn through_glass(&self) -> bool {
+        self.via & VIA_INSIDE != 0 && self.via & !VIA_INSIDE == self.mirror
+    }
+
+    /// Whether the pair is a chain of two spheres ([`CHAIN_SHARE`] of the
+    /// samples estimate it).
+    #[inline(always)]
+    pub fn is_chain(&self) -> bool {
+        self.via != NO_VIA && !self.through_glass()
     }
 
     fn holds(&self, x: u32, y: u32) -> bool {
@@ -159,21 +183,27 @@ impl Highlights {
         tallest: 0,
     };
 
-    /// The pairs of `scene` seen by `camera` (none for a lens camera):
-    /// first every light seen in a mirror straight from the camera, then,
-    /// in the room left, the chains (camera → mirror → mirror → light)
-    /// whose images are largest on the film ([`CHAINS`] at most).
+    /// The pairs of `scene` seen by `camera`: first every light seen in a
+    /// mirror or through a glass ball straight from the camera, then, in
+    /// the room left, the chains (camera → mirror or glass → mirror →
+    /// light) whose images are largest on the film ([`CHAINS`] at most).
+    /// With a lens, each is bounded on the film over the whole lens
+    /// (its rectangles from the lens' centre and rim).
     #[inline(never)]
     pub fn new(scene: &SceneView<'_>, camera: &Camera) -> Self {
         let mut out = Self::NONE;
-        if camera.has_lens() {
-            return out;
-        }
         let (w, h) = (camera.width(), camera.height());
         for (mi, m) in scene.spheres.iter().enumerate() {
-            if !is_mirror(scene, m) {
-                continue;
-            }
+            // a mirror, or a glass ball that one path from the eye leaves
+            // along each direction (as a chain's first sphere)
+            let kind = if is_mirror(scene, m) {
+                None
+            } else {
+                match chain::first(scene, camera, m) {
+                    Some((k, _)) if k != chain::First::Mirror => Some(k),
+                    _ => continue,
+                }
+            };
             for &li in scene.emitters {
                 let Some(l) = scene.spheres.get(li as usize) else {
                     continue;
@@ -183,14 +213,19 @@ impl Highlights {
                 };
                 // a pair whose image is not bounded that way, or lies
                 // outside the film, is left to film sampling
-                let Some(pixels) = image_rect(camera, m, l, d).and_then(|r| pixel_rect(r, w, h))
+                let Some(pixels) =
+                    image_rect(camera, kind, m, l, d).and_then(|r| pixel_rect(r, w, h))
                 else {
                     continue;
                 };
                 out.insert(Highlight {
                     mirror: mi as u16,
                     light: li,
-                    via: NO_VIA,
+                    via: if kind.is_some() {
+                        mi as u16 | VIA_INSIDE
+                    } else {
+                        NO_VIA
+                    },
                     pixels,
                 });
             }
@@ -235,30 +270,26 @@ impl Highlights {
         self.len == 0
     }
 
-    /// Whether the emission of `light` that a camera path meets right after
-    /// the mirror `mirror`, its chain so far `via` ([`Highlights::via_of`]),
-    /// is estimated here (the path tracer then leaves it out).
+    /// Whether the emission of `light` that a camera path meets after
+    /// `depth` bounces, the last of them at the sphere `from`, having met
+    /// first the sphere `first` ([`NO_VIA`] for none; with [`VIA_INSIDE`]
+    /// if it met that sphere again right after), is estimated here (the
+    /// path tracer then leaves it out). The pairs' paths: camera → mirror
+    /// → light at depth 1, camera → glass → glass → light and camera →
+    /// mirror → mirror → light at 2, camera → glass → glass → mirror →
+    /// light at 3.
     #[inline]
-    pub fn covers(&self, via: u16, mirror: ObjectId, light: ObjectId) -> bool {
-        let (Some(m), Some(l)) = (mirror.as_sphere(), light.as_sphere()) else {
+    pub fn covers(&self, depth: u32, first: u16, from: ObjectId, light: ObjectId) -> bool {
+        let (Some(m), Some(l)) = (from.as_sphere(), light.as_sphere()) else {
             return false;
         };
-        self.as_slice()
-            .iter()
-            .any(|p| usize::from(p.mirror) == m && usize::from(p.light) == l && p.via == via)
-    }
-
-    /// The [`Highlight::via`] of a path that meets a light at `depth`
-    /// bounces, the last of them in a mirror, having met first the sphere
-    /// `first` ([`NO_VIA`] for none) and, if `first` carries
-    /// [`VIA_INSIDE`], that sphere again right after: `None` where no
-    /// pair's chain is such a path (the estimator's chains are camera →
-    /// mirror → light at depth 1, camera → mirror → mirror → light at 2,
-    /// camera → glass → glass → mirror → light at 3).
-    #[inline(always)]
-    pub fn via_of(depth: u32, first: u16) -> Option<u16> {
         let via = if depth == 1 { NO_VIA } else { first };
-        (Highlight::bounces(via) == depth).then_some(via)
+        self.as_slice().iter().any(|p| {
+            usize::from(p.mirror) == m
+                && usize::from(p.light) == l
+                && p.via == via
+                && p.bounces() == depth
+        })
     }
 
     /// The pairs whose rectangles hold pixel (x, y).
@@ -388,19 +419,77 @@ const RIM: usize = 32;
 const STEP_COS: f32 = 0.980_785_3;
 const STEP_SIN: f32 = 0.195_090_32;
 
-/// The film rectangle of the image of the light `l` in the mirror `m`
-/// (centres `d` apart): the image of the pair's cone of directions is
-/// bounded by the image of the cone's rim, whose bounding box of [`RIM`]
-/// points is widened by twice the largest step between neighbours (the
-/// curve between two of them stays within that). `None` when a rim
-/// direction has no point on the mirror's visible side (the cone reaches
-/// the part the mirror hides from the eye) or its point is not in front of
+/// The film rectangle of the image of the light `l` in the mirror `m`, or
+/// through the glass ball `m` (`glass`: its kind) (centres `d` apart): the
+/// image of the pair's cone of directions is bounded by the image of the
+/// cone's rim, whose bounding box of [`RIM`] points is widened by twice
+/// the largest step between neighbours (the curve between two of them
+/// stays within that), over the lens ([`lens_rect`]). `None` when a rim
+/// direction has no point on the sphere's visible side (the cone reaches
+/// the part the sphere hides from the eye) or its point is not in front of
 /// the eye.
-fn image_rect(camera: &Camera, m: &Sphere, l: &Sphere, d: f32) -> Option<[f32; 4]> {
-    rim_rect(m, l, d, RIM, |w| {
-        let n = mirror_point(camera.eye(), m.center, m.radius, w)?;
-        camera.film_of(m.center + n * m.radius)
+fn image_rect(
+    camera: &Camera,
+    glass: Option<chain::First>,
+    m: &Sphere,
+    l: &Sphere,
+    d: f32,
+) -> Option<[f32; 4]> {
+    lens_rect(camera, |lp| {
+        let eye = camera.origin(&lp);
+        rim_rect(m, l, d, RIM, |w| {
+            let seen = match glass {
+                None => m.center + mirror_point(eye, m.center, m.radius, w)? * m.radius,
+                Some(kind) => chain::glass_entry(eye, kind, m, w)?,
+            };
+            camera.film_at(seen, &lp)
+        })
     })
+}
+
+/// Positions on a lens' rim at which a pair's image is bounded
+/// ([`lens_rect`]).
+const LENS_RIM: usize = 8;
+
+/// The film rectangle that `rect_at` gives from every position of the
+/// camera's lens (for a pinhole, from the eye): the union of its
+/// rectangles from the lens' centre and [`LENS_RIM`] points of its rim,
+/// widened by twice the largest step of a side between rim neighbours. An
+/// image moves on the film nearly in proportion to the lens offset (its
+/// defocus), so the rim's images bound the disk's. `None` when any of
+/// them is `None`.
+fn lens_rect(camera: &Camera, rect_at: impl Fn(LensPoint) -> Option<[f32; 4]>) -> Option<[f32; 4]> {
+    let mut r = rect_at(LensPoint::CENTRE)?;
+    if !camera.has_lens() {
+        return Some(r);
+    }
+    let mut gap = 0.0f32;
+    let mut prev: Option<[f32; 4]> = None;
+    // (cos, sin) of k · 2π / LENS_RIM: k = 0 again at the end, to close
+    // the rim
+    let (step_cos, step_sin) = (
+        core::f32::consts::FRAC_1_SQRT_2,
+        core::f32::consts::FRAC_1_SQRT_2,
+    );
+    let (mut c, mut s) = (1.0f32, 0.0f32);
+    for _ in 0..=LENS_RIM {
+        let q = rect_at(camera.lens_at(c, s))?;
+        if let Some(p) = prev {
+            for (a, b) in q.iter().zip(p.iter()) {
+                gap = math::max(gap, math::abs(a - b));
+            }
+        }
+        prev = Some(q);
+        r = [
+            math::min(r[0], q[0]),
+            math::min(r[1], q[1]),
+            math::max(r[2], q[2]),
+            math::max(r[3], q[3]),
+        ];
+        (c, s) = (c * step_cos - s * step_sin, s * step_cos + c * step_sin);
+    }
+    let pad = 2.0 * gap;
+    Some([r[0] - pad, r[1] - pad, r[2] + pad, r[3] + pad])
 }
 
 /// The film rectangle of the cone of directions from mirror `m` to light
@@ -559,33 +648,37 @@ pub fn mirror_point(e: Vec3, c: Vec3, r: f32, w: Vec3) -> Option<Vec3> {
 }
 
 /// The highlight estimate of pair `p` for pixel (`px`, `py`) from the
-/// numbers `rnd` in [0,1)²: `tint · L_e / (p(ω) |dω/dx|)` when the sampled
-/// film position lies in the pixel and its camera ray meets the mirror and
-/// then the light first, else `None` (zero). The rays it traces are counted
-/// in `stats.bounce_rays`.
+/// lens position `lp` (the eye for a pinhole) and the numbers `rnd` in
+/// [0,1)²: `weight · L_e / (p(ω) |dω/dx|)` when the sampled film position
+/// lies in the pixel and its camera ray from `lp` meets the pair's spheres
+/// and then the light first, else `None` (zero); the weight is the
+/// mirror's tint, or the ball's two Fresnel transmittances. The rays it
+/// traces are counted in `stats.bounce_rays`.
+#[allow(clippy::too_many_arguments)]
 pub fn estimate(
     scene: &SceneView<'_>,
     camera: &Camera,
     p: &Highlight,
     px: u32,
     py: u32,
+    lp: &LensPoint,
     rnd: [f32; 2],
     stats: &mut Stats,
 ) -> Option<Color> {
     let m = scene.spheres.get(usize::from(p.mirror))?;
     let l = scene.spheres.get(usize::from(p.light))?;
-    let Some(Material::Mirror(tint)) = scene.materials.get(m.material as usize) else {
-        return None;
-    };
     let le = scene.materials.get(l.material as usize)?.emission()?;
     let reach = l.radius + m.radius;
     let cone = light::sample_cone(m.center, l.center, reach * reach, rnd[0], rnd[1], false)?;
     if p.via != NO_VIA {
-        let value = estimate_chain(scene, camera, p, m, cone.dir, [px, py], stats)?;
+        let value = estimate_chain(scene, camera, p, m, cone.dir, [px, py], lp, stats)?;
         return Some(le * value * (1.0 / cone.pdf));
     }
-    let n = mirror_point(camera.eye(), m.center, m.radius, cone.dir)?;
-    let [fx, fy] = camera.film_of(m.center + n * m.radius)?;
+    let Some(Material::Mirror(tint)) = scene.materials.get(m.material as usize) else {
+        return None;
+    };
+    let n = mirror_point(camera.origin(lp), m.center, m.radius, cone.dir)?;
+    let [fx, fy] = camera.film_at(m.center + n * m.radius, lp)?;
     let (x0, y0) = (px as f32, py as f32);
     if !(fx >= x0 && fx < x0 + 1.0 && fy >= y0 && fy < y0 + 1.0) {
         return None;
@@ -593,7 +686,7 @@ pub fn estimate(
     // the camera ray of that film position, as the path tracer traces it
     // (the query out of line, which gives the same hits as the inlined one
     // the path tracer uses)
-    let ray = camera.ray(fx, fy);
+    let ray = camera.ray_at(fx, fy, lp);
     stats.bounce_rays += 1;
     let hit = scene.closest_hit_any(&ray, ObjectId::NONE)?;
     if hit.object != ObjectId::sphere(usize::from(p.mirror)) {
@@ -608,7 +701,7 @@ pub fn estimate(
         return None;
     }
     // |dω/dx|: from the camera ray's derivatives on the film
-    let (a1, a2) = camera.dir_derivatives(fx, fy);
+    let (a1, a2) = camera.dir_derivatives_at(fx, fy, lp);
     let nc = n.dot(wc);
     if !(nc < 0.0) {
         return None;
@@ -745,7 +838,7 @@ mod tests {
                     m.center + n * m.radius
                 } else {
                     let a = view.spheres[usize::from(p.via & !VIA_INSIDE)];
-                    let (kind, _) = first(&view, camera.eye(), &a).unwrap();
+                    let (kind, _) = first(&view, &camera, &a).unwrap();
                     let Some((seen, _, _)) =
                         chain_points(camera.eye(), kind, &a, &m, cone.dir, None)
                     else {

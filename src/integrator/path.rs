@@ -351,8 +351,7 @@ impl<'a> PathState<'a> {
         if self.depth <= 3
             && opts.highlights
             && let Some(h) = ctx.highlights
-            && let Some(via) = crate::highlight::Highlights::via_of(self.depth, self.via)
-            && h.covers(via, self.from, hit.object)
+            && h.covers(self.depth, self.via, self.from, hit.object)
         {
             return;
         }
