@@ -143,6 +143,9 @@ pub struct Guide {
     /// albedos the guide saw, too coarse to divide out, and the filter
     /// smooths the radiance itself, with other blurred pixels only.
     pub blurred: bool,
+    /// The surface's object if it is textured (its albedo changes over
+    /// it), else [`ObjectId::NONE`].
+    pub textured: ObjectId,
 }
 
 impl Guide {
@@ -156,6 +159,7 @@ impl Guide {
         glass: false,
         flat: false,
         blurred: false,
+        textured: ObjectId::NONE,
     };
 }
 
@@ -204,7 +208,7 @@ fn differ(a: Color, b: Color) -> bool {
 /// [`Guide::blurred`], its albedo the mean of those seen.
 pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
     let (fx, fy) = (x as f32 + 0.5, y as f32 + 0.5);
-    let (mut g, textured, sees) = guide_along(renderer, renderer.camera().ray(fx, fy), true);
+    let (mut g, sees) = guide_along(renderer, renderer.camera().ray(fx, fy), true);
     if g.kind != GuideKind::Surface {
         return g;
     }
@@ -230,7 +234,8 @@ pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
         }
     }
     #[cfg(feature = "checker")]
-    if let Some(object) = textured {
+    if g.textured != ObjectId::NONE {
+        let object = g.textured;
         for [dx, dy] in PIXEL_CORNERS {
             let ray = renderer.camera().ray(fx + dx, fy + dy);
             let a = if g.deltas == 0 {
@@ -251,8 +256,6 @@ pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
             }
         }
     }
-    #[cfg(not(feature = "checker"))]
-    let _ = textured;
     if sees {
         g.key ^= SEES_LIGHT_KEY;
     }
@@ -274,15 +277,10 @@ pub fn guide(renderer: &Renderer<'_>, x: u32, y: u32) -> Guide {
     not(any(feature = "mirror", feature = "glass")),
     allow(unreachable_code, unused_mut, unused_variables)
 )]
-/// Also returns the surface's object if it is textured (its albedo
-/// changes over it) and, if `light` asks, whether it sees its brightest
+/// Also returns, if `light` asks, whether the surface sees its brightest
 /// light ([`sees_brightest_light`]).
-pub(super) fn guide_along(
-    renderer: &Renderer<'_>,
-    mut ray: Ray,
-    light: bool,
-) -> (Guide, Option<ObjectId>, bool) {
-    const KEEP: (Guide, Option<ObjectId>, bool) = (Guide::KEEP, None, false);
+pub(super) fn guide_along(renderer: &Renderer<'_>, mut ray: Ray, light: bool) -> (Guide, bool) {
+    const KEEP: (Guide, bool) = (Guide::KEEP, false);
     let scene = renderer.scene();
     let mut from = ObjectId::NONE;
     let mut tint = Color::ONE;
@@ -313,9 +311,9 @@ pub(super) fn guide_along(
                 glass,
                 flat: hit.object.as_plane().is_some(),
                 blurred: false,
+                textured: if textured { hit.object } else { ObjectId::NONE },
             };
-            let textured = textured.then_some(hit.object);
-            (g, textured, light && sees_brightest_light(scene, &hit, n))
+            (g, light && sees_brightest_light(scene, &hit, n))
         };
         let dir = match mat {
             Material::Diffuse(a) => return surface(*a, false),

@@ -22,6 +22,7 @@ fn wall(a: Color, s: Color, v: f32, key: u32) -> Texel {
         glass: false,
         flat: true,
         blurred: false,
+        textured: crate::geometry::ObjectId::NONE,
     };
     // moments of n samples whose mean is s and whose mean's variance is v
     let n = 16u32;
@@ -239,6 +240,7 @@ fn a_light_seen_directly_is_kept_and_the_rest_filtered() {
         glass: false,
         flat: true,
         blurred: false,
+        textured: crate::geometry::ObjectId::NONE,
     };
     let m = Moments {
         scattered: [4.0; 3],

@@ -85,9 +85,10 @@ impl TextureRatio {
             return None;
         }
         let (fx, fy) = (x as f32 + 0.5, y as f32 + 0.5);
-        let centre = renderer.camera().ray(fx, fy);
-        let (_, object, _) = guide_along(renderer, centre, false);
-        let object = object?;
+        let object = g.textured;
+        if object == ObjectId::NONE {
+            return None;
+        }
         if g.deltas == 0 && footprint_is_fine(renderer, object, fx, fy) {
             return None;
         }
@@ -177,16 +178,23 @@ impl TextureRatio {
 /// (a ray that misses it: the footprint is unbounded).
 fn footprint_is_fine(renderer: &Renderer<'_>, object: ObjectId, fx: f32, fy: f32) -> bool {
     let camera = renderer.camera();
+    let scene = renderer.scene();
+    // the object's checker (every ray below meets that one object)
+    let material = match (object.as_plane(), object.as_sphere()) {
+        (Some(i), _) => scene.planes.get(i).map(|p| p.material),
+        (_, Some(i)) => scene.spheres.get(i).map(|s| s.material),
+        _ => None,
+    };
+    let Some(Material::Checker(c)) = material.and_then(|m| scene.materials.get(usize::from(m)))
+    else {
+        return false;
+    };
+    let size = c.size;
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    let mut size = f32::INFINITY;
     let mut add = |ray: Ray| {
         let Some(h) = hit_on(renderer, &ray, object) else {
             return false;
         };
-        if let Some(Material::Checker(c)) = renderer.scene().materials.get(usize::from(h.material))
-        {
-            size = c.size;
-        }
         let p = h.point;
         lo = Vec3::new(
             math::min(lo.x, p.x),
