@@ -28,8 +28,11 @@
 //! of variables from `ω_x` to `ω` is many-to-one: all its preimages
 //! count). The path tracer leaves out the emission its BSDF sample meets
 //! along the same kind of path (one reflection in that mirror, or in and
-//! out of that glass sphere, from that `x`): [`covers`]. The two partition
-//! the paths, so the sum is unbiased.
+//! out of that glass sphere, from that `x`): [`bsdf_share`]. The two
+//! partition the paths, so the sum is unbiased; except near a glass
+//! ball's caustic fold (`|dω/dω_x|` below [`GLASS_JAC_MIN`]), where the
+//! sample's density falls to 0 and both take the path, weighted by the
+//! balance heuristic ([`fold_weight`]).
 //!
 //! Only a share of the vertices ([`SHARE`]) sample it, weighted by the
 //! inverse: the estimate has little noise, and its cost (a search over the
@@ -57,12 +60,27 @@ pub const SIN_MIN: f32 = 0.05;
 pub const SHARE: f32 = 0.1;
 
 /// The smallest `|dω/dω_x|` of a path through a glass sphere that the
-/// sample through the sphere takes: near a caustic's fold the ratio falls
-/// to 0 and the sample's value grows without bound (its variance is
+/// sample through the sphere takes alone: near a caustic's fold the ratio
+/// falls to 0 and the sample's value grows without bound (its variance is
 /// infinite there), while the light's image seen from `x` grows large and
-/// the BSDF sample finds it well. Paths below it stay with the BSDF
-/// sample, at full weight.
+/// the BSDF sample finds it well. Paths below it (the fold's) are taken
+/// by both, weighted by the balance heuristic ([`fold_weight`]).
 pub const GLASS_JAC_MIN: f32 = 0.1;
+
+/// The caustic sample's multiple-importance weight of a fold's path
+/// (`|dω/dω_x|` below [`GLASS_JAC_MIN`]) whose density at `x` is
+/// `fold_pdf` in the sample ([`CausticSample::fold_pdf`]) and `bsdf_pdf`
+/// in the vertex's BSDF sample: the balance heuristic, the sample counted
+/// at its share of the vertices (`SHARE · fold_pdf` against `bsdf_pdf`).
+/// The BSDF sample keeps the rest, `1 −` this ([`bsdf_share`]): the sum
+/// of the two estimates is bounded by the BSDF sample's alone, where the
+/// sample through the sphere alone has infinite variance.
+#[inline(always)]
+pub fn fold_weight(fold_pdf: f32, bsdf_pdf: f32) -> f32 {
+    let a = SHARE * fold_pdf;
+    let sum = a + bsdf_pdf;
+    if sum > 0.0 { a / sum } else { 0.0 }
+}
 
 /// Most mirror and glass spheres whose caustics a render samples; further
 /// spheres are left to the path tracer's BSDF samples. Feature
@@ -76,7 +94,7 @@ pub const CAPACITY: usize = 128;
 pub const CAPACITY: usize = 64;
 
 /// The mirror and glass spheres of a scene with a caustic pair
-/// ([`has_pair`]), in scene order: what [`sample`] and [`covers`] take.
+/// ([`has_pair`]), in scene order: what [`sample`] and [`bsdf_share`] take.
 #[derive(Clone, Copy, Debug)]
 pub struct Spheres {
     list: [u16; CAPACITY],
@@ -185,34 +203,39 @@ fn emitted(scene: &SceneView<'_>, l: &Sphere) -> Option<Color> {
     scene.materials.get(l.material as usize)?.emission()
 }
 
-/// Whether the emission of `light` that a path meets after its first
+/// The share of the emission of `light` that a path meets after its first
 /// non-delta vertex, at `x`, and then one reflection in the mirror sphere
 /// `sphere`, or a refraction into and out of the glass sphere `sphere`
-/// leaving along `exit`, is sampled at `x` by [`sample`] with the spheres
-/// `list` (the path tracer then leaves it out).
+/// leaving along `exit`, that the path tracer keeps, where [`sample`]
+/// with the spheres `list` samples such paths at `x`: 0 for the paths it
+/// takes alone, `1 −` [`fold_weight`] for a fold's (`bsdf_pdf`: the
+/// density of the BSDF sample's direction at `x`), 1 for paths it does
+/// not sample.
 #[inline(never)]
-pub fn covers(
+pub fn bsdf_share(
     scene: &SceneView<'_>,
     list: &[u16],
     x: Vec3,
     sphere: usize,
     exit: &Ray,
     light: ObjectId,
-) -> bool {
+    bsdf_pdf: f32,
+) -> f32 {
     let Some(li) = light.as_sphere() else {
-        return false;
+        return 1.0;
     };
     if !list.iter().any(|&i| usize::from(i) == sphere)
         || !scene.emitters.iter().any(|&e| usize::from(e) == li)
     {
-        return false;
+        return 1.0;
     }
     let (Some(m), Some(l)) = (scene.spheres.get(sphere), scene.spheres.get(li)) else {
-        return false;
+        return 1.0;
     };
     let le = emitted(scene, l).map_or(0.0, |c| c.luminance());
-    if !(pair_weight(m, l, le, x) > 0.0) {
-        return false;
+    let w = pair_weight(m, l, le, x);
+    if !(w > 0.0) {
+        return 1.0;
     }
     match kind(scene.materials.get(m.material as usize)) {
         #[cfg(feature = "glass")]
@@ -224,14 +247,48 @@ pub fn covers(
             let a = to_c * (1.0 / d);
             let sw = (exit.dir - a * a.dot(exit.dir)).length();
             let b = (m.center - exit.origin).cross(exit.dir).length();
-            glass_jacobian(d, m.radius, ior, b, sw) >= GLASS_JAC_MIN
+            let jac = glass_jacobian(d, m.radius, ior, b, sw);
+            if jac >= GLASS_JAC_MIN {
+                return 0.0;
+            }
+            // a fold's path: its density in the sample, as [`sample`]
+            // draws it (the pair's share of the weights at x, the cone's
+            // pdf, the Jacobian)
+            let reach = l.radius + m.radius;
+            let pdf = (w / pair_total(scene, list, x))
+                * light::cone_pdf(m.center, l.center, reach * reach)
+                * jac;
+            1.0 - fold_weight(pdf, bsdf_pdf)
         }
         Some(Kind::Mirror(_)) => {
-            let _ = exit;
-            true
+            let _ = (exit, bsdf_pdf);
+            0.0
         }
-        None => false,
+        None => 1.0,
     }
+}
+
+/// The sum of the caustic pairs' weights at `x` ([`pair_weight`], in
+/// [`sample`]'s order).
+#[cfg(feature = "glass")]
+fn pair_total(scene: &SceneView<'_>, list: &[u16], x: Vec3) -> f32 {
+    let mut total = 0.0f32;
+    for &i in list {
+        let Some(m) = scene.spheres.get(usize::from(i)) else {
+            continue;
+        };
+        for &li in scene.emitters {
+            let Some(l) = scene.spheres.get(usize::from(li)) else {
+                continue;
+            };
+            let le = emitted(scene, l).map_or(0.0, |c| c.luminance());
+            let w = pair_weight(m, l, le, x);
+            if w > 0.0 {
+                total += w;
+            }
+        }
+    }
+    total
 }
 
 /// One path of a caustic sample.
@@ -247,6 +304,11 @@ pub struct CausticSample {
     /// [`FOCUSED_JAC`]): a focused caustic, sharp at the film's scale,
     /// where a broad one varies smoothly.
     pub focused: bool,
+    /// For a path of a caustic's fold (`|dω/dω_x|` below
+    /// [`GLASS_JAC_MIN`]), its density at `x` (`value`'s pdf), which the
+    /// BSDF sample's is weighed against ([`fold_weight`]); 0 for a path
+    /// the sample takes alone.
+    pub fold_pdf: f32,
 }
 
 impl CausticSample {
@@ -255,6 +317,7 @@ impl CausticSample {
         wi: Vec3::ZERO,
         value: Color::ZERO,
         focused: false,
+        fold_pdf: 0.0,
     };
 }
 
@@ -379,6 +442,7 @@ pub fn sample(
                     wi,
                     value: tint * le * (scale / jac),
                     focused: jac < FOCUSED_JAC,
+                    fold_pdf: 0.0,
                 };
             }
             1
@@ -389,7 +453,7 @@ pub fn sample(
             let found = glass_paths(x.point, m.center, m.radius, ior, cone.dir, &mut paths);
             let mut kept = 0;
             for p in paths.iter().take(found) {
-                if !(n.dot(p.wi) > 0.0 && p.jac >= GLASS_JAC_MIN && to_light(p.exit, rays)) {
+                if !(n.dot(p.wi) > 0.0 && p.jac > 0.0 && to_light(p.exit, rays)) {
                     continue;
                 }
                 *rays += 2;
@@ -403,6 +467,11 @@ pub fn sample(
                         wi: p.wi,
                         value: le * (p.transmit * scale / p.jac),
                         focused: p.jac < FOCUSED_JAC,
+                        fold_pdf: if p.jac < GLASS_JAC_MIN {
+                            p.jac / scale
+                        } else {
+                            0.0
+                        },
                     };
                     kept += 1;
                 }

@@ -115,7 +115,11 @@ fn caustic_paths<B: Lobe>(
         let cos_i = at.n.dot(cs.wi);
         let (s, pi_pdf) = lobe.eval(at.wo, at.n, cs.wi, cos_i);
         // f cos θ = tint · s · pdf
-        let c = lobe.tint() * cs.value * (s * pi_pdf * (math::INV_PI / caustic::SHARE));
+        let mut c = lobe.tint() * cs.value * (s * pi_pdf * (math::INV_PI / caustic::SHARE));
+        // a fold's path, shared with the BSDF sample (balance heuristic)
+        if cs.fold_pdf > 0.0 {
+            c *= caustic::fold_weight(cs.fold_pdf, pi_pdf * math::INV_PI);
+        }
         sum += c;
         if cs.focused {
             focused += c;
@@ -357,20 +361,26 @@ impl<'a> PathState<'a> {
         }
         // a light seen through a mirror or glass sphere from the first
         // non-delta vertex, whose caustic the sample through the sphere
-        // took there: left to it
+        // took there: left to it, or shared with it on a caustic's fold
+        #[cfg(feature = "highlight")]
+        let mut le = le;
         #[cfg(feature = "highlight")]
         if self.caustic < CAUSTIC_INSIDE
-            && let Some(x) = self.prev_point()
-            && caustic::covers(
+            && let Some((x, bsdf_pdf)) = self.prev_bsdf()
+        {
+            let share = caustic::bsdf_share(
                 ctx.scene,
                 ctx.caustics,
                 x,
                 usize::from(self.caustic),
                 &self.ray,
                 hit.object,
-            )
-        {
-            return;
+                bsdf_pdf,
+            );
+            if !(share > 0.0) {
+                return;
+            }
+            le *= share;
         }
         if math::lt_zero(self.ray.dir.dot(hit.normal)) {
             let w = self.emission_weight::<MANY>(ctx, hit, opts);
@@ -509,17 +519,18 @@ impl<'a> PathState<'a> {
         self.shadows += rays;
     }
 
-    /// The point of the last non-delta vertex, once there is one.
+    /// The point of the last non-delta vertex, once there is one, and the
+    /// density of its BSDF sample's direction.
     #[cfg(feature = "highlight")]
     #[inline(always)]
-    fn prev_point(&self) -> Option<Vec3> {
+    fn prev_bsdf(&self) -> Option<(Vec3, f32)> {
         #[cfg(feature = "metal")]
         {
-            self.prev.map(|p| p.point)
+            self.prev.map(|p| (p.point, p.bsdf_pdf))
         }
         #[cfg(not(feature = "metal"))]
         {
-            Some(self.prev.point)
+            Some((self.prev.point, self.prev.bsdf_pdf))
         }
     }
 
