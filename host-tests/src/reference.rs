@@ -104,9 +104,15 @@ impl Reference {
         })
     }
 
-    /// The scene file this reference was rendered from.
+    /// The scene file this reference was rendered from: a test scene of
+    /// its own beside it (`data/<name>.scene`), else the shipped scene.
     pub fn scene_path(&self) -> PathBuf {
-        scenes_dir().join(format!("{}.scene", self.name))
+        let own = data_dir().join(format!("{}.scene", self.name));
+        if own.is_file() {
+            own
+        } else {
+            scenes_dir().join(format!("{}.scene", self.name))
+        }
     }
 
     /// Standard error of the reference's image mean (per channel): the

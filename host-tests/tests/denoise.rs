@@ -126,7 +126,7 @@ fn never_worse(spp: u32) {
         .into_iter()
         .map(|name| {
             let r = Reference::load(&name).unwrap();
-            let path = scenes_dir().join(format!("{name}.scene"));
+            let path = r.scene_path();
             let se = Image::load_pfm(&data_dir().join(format!("{name}.se.pfm"))).ok();
             (name, path, r.image, se, r.rms_standard_error)
         })

@@ -293,7 +293,7 @@ fn null_spread(scene: &str) -> f64 {
         "cornell" => 0.091,
         "furnace" => 0.117,
         "smallpt" => 0.027,
-        "spheres" => 0.140,
+        "spheres" => 0.175,
         // since the highlight chains, many's MSE at this budget is mostly a
         // few rare bright paths (the null ratio's mean 3.77, up to 32):
         // the test says little about it
@@ -301,7 +301,7 @@ fn null_spread(scene: &str) -> f64 {
         // dof's sun through the glass ball is estimated too, and what is
         // left is mostly the ball's caustic (rare bright paths); gloss's
         // small lights in its sharp metals
-        "dof" => 0.426,
+        "dof" => 1.09,
         "gloss" => 0.966,
         _ => 0.189, // sphere-over-plane
     }
