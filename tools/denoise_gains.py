@@ -4,6 +4,7 @@
 usage: python3 tools/denoise_gains.py SPP SEEDS [SCENE ...] [-- render flags...]
 
 For each scene (default: every scene with a reference in host-tests/data,
+(its scene in scenes/, or beside it in host-tests/data for a test scene)
 and the denoiser's own test scenes, host-tests/data/denoise/NAME.scene,
 named denoise/NAME) and each seed S in 0..SEEDS: renders SCENE with `micropt render
 --uniform --spp SPP --seed S` at the reference's size, once raw and once
@@ -36,7 +37,9 @@ def main():
         for scene in scenes:
             ref = read_pfm(f'host-tests/data/{scene}.pfm')
             # the denoiser's own test scenes sit beside their references
-            path = f'host-tests/data/{scene}.scene' if scene.startswith('denoise/') else f'scenes/{scene}.scene'
+            # a test scene beside its reference (host-tests/data), else a shipped one
+            own = f'host-tests/data/{scene}.scene'
+            path = own if os.path.exists(own) else f'scenes/{scene}.scene'
             h, w, _ = ref.shape
             rel = {False: [], True: []}
             mse = {False: [], True: []}
