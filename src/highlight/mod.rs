@@ -862,4 +862,103 @@ mod tests {
             }
         }
     }
+
+    /// The same through a thin lens, for mirror pairs, glass pairs and
+    /// chains: every film position sampled from any lens position (the
+    /// solve from that position, projected through it) lies in the pair's
+    /// rectangle, which bounds the pair over the lens' centre and rim
+    /// (bounded from the lens' centre alone, a mirror's image lands a
+    /// pixel outside: the test fails).
+    #[test]
+    fn sampled_film_positions_through_a_lens_lie_in_the_pairs_rectangle() {
+        let mut b = crate::SceneBuilder::<64, 4, 8>::new();
+        let mirror = b.material(Material::Mirror(Color::splat(0.8))).unwrap();
+        let glass = b.material(Material::Glass(1.5)).unwrap();
+        let sun = b.material(Material::Light(Color::splat(500.0))).unwrap();
+        // focused at 4: the near balls blur over several pixels
+        let spec = CameraSpec::pinhole(
+            Vec3::new(0.0, 1.0, 6.0),
+            Vec3::ZERO,
+            Vec3::new(0.0, 1.0, 0.0),
+            40.0,
+        )
+        .lens(0.15, 4.0);
+        b.camera(spec).unwrap();
+        for i in 0..5 {
+            for j in 0..3 {
+                let c = Vec3::new(i as f32 - 2.0, 0.0, 2.0 - (j as f32) * 2.0);
+                let mat = if (i + j) % 2 == 0 { mirror } else { glass };
+                b.sphere(c, 0.1 + 0.1 * (i + j) as f32 / 6.0, mat).unwrap();
+            }
+        }
+        // a sun ahead (seen through the glass balls) and one behind (in
+        // the mirrors)
+        b.sphere(Vec3::new(-300.0, 500.0, -800.0), 40.0, sun)
+            .unwrap();
+        b.sphere(Vec3::new(300.0, 800.0, 200.0), 30.0, sun).unwrap();
+        let scene = b.build().unwrap();
+        let camera = Camera::new(&spec, 48, 32).unwrap();
+        let view = scene.view(camera.view_cos() - 1e-4);
+        let pairs = Highlights::new(&view, &camera);
+        let list = pairs.as_slice();
+        let glass_pairs = list.iter().filter(|p| p.through_glass()).count();
+        let mirror_pairs = list.iter().filter(|p| p.via == NO_VIA).count();
+        let chains = list.iter().filter(|p| p.is_chain()).count();
+        assert!(
+            glass_pairs >= 3 && mirror_pairs >= 3 && chains >= 3,
+            "{glass_pairs} glass pairs, {mirror_pairs} mirror pairs, {chains} chains"
+        );
+        let mut next = numbers();
+        let mut landed = 0;
+        for p in list {
+            let m = view.spheres[p.mirror as usize];
+            let l = view.spheres[p.light as usize];
+            let reach = l.radius + m.radius;
+            let [x0, y0, x1, y1] = p.pixels;
+            for _ in 0..2000 {
+                let lp = camera.lens_point([next(), next()]);
+                let eye = camera.origin(&lp);
+                let Some(cone) =
+                    light::sample_cone(m.center, l.center, reach * reach, next(), next(), false)
+                else {
+                    continue;
+                };
+                let seen = if p.via == NO_VIA {
+                    let Some(n) = mirror_point(eye, m.center, m.radius, cone.dir) else {
+                        continue;
+                    };
+                    m.center + n * m.radius
+                } else {
+                    let a = view.spheres[usize::from(p.via & !VIA_INSIDE)];
+                    let (kind, _) = first(&view, &camera, &a).unwrap();
+                    let found = if p.through_glass() {
+                        chain::glass_entry(eye, kind, &a, cone.dir)
+                    } else {
+                        chain_points(eye, kind, &a, &m, cone.dir, None).map(|(s, _, _)| s)
+                    };
+                    let Some(seen) = found else {
+                        continue;
+                    };
+                    seen
+                };
+                let [fx, fy] = camera.film_at(seen, &lp).unwrap();
+                let (px, py) = (math::floor(fx), math::floor(fy));
+                if px < 0.0 || py < 0.0 || px >= 48.0 || py >= 32.0 {
+                    continue;
+                }
+                landed += 1;
+                assert!(
+                    px >= f32::from(x0)
+                        && px <= f32::from(x1)
+                        && py >= f32::from(y0)
+                        && py <= f32::from(y1),
+                    "({fx}, {fy}) outside {:?} (via {}, sphere {})",
+                    p.pixels,
+                    p.via,
+                    p.mirror
+                );
+            }
+        }
+        assert!(landed > 1000, "{landed} samples landed on the film");
+    }
 }
