@@ -301,19 +301,6 @@ impl Camera {
         ])
     }
 
-    /// The derivatives of the unit pinhole ray direction through film
-    /// position (`fx`, `fy`) along the two film axes (per pixel).
-    #[cfg(feature = "highlight")]
-    pub fn dir_derivatives(&self, fx: f32, fy: f32) -> (Vec3, Vec3) {
-        let d = self.corner + self.dx * fx + self.dy * fy;
-        let inv = 1.0 / d.length();
-        let w = d * inv;
-        (
-            (self.dx - w * self.dx.dot(w)) * inv,
-            (self.dy - w * self.dy.dot(w)) * inv,
-        )
-    }
-
     /// The position on the lens that `lens` in [0,1)² maps to (as
     /// [`Camera::lens_ray`] maps it); the eye for a pinhole.
     #[cfg(feature = "highlight")]

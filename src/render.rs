@@ -353,12 +353,15 @@ impl<'a> Renderer<'a> {
             // an unstratified render is plain Monte Carlo throughout, its
             // MSE exactly 1/N)
             let key = pixel.key ^ mix64(k as u64 + 1);
-            let mut rnd = if self.options.stratified {
-                sobol_2d(index, key)
-            } else {
-                let z = mix64(key ^ mix64(u64::from(index)));
-                [to_unit(z as u32), to_unit((z >> 32) as u32)]
+            let numbers = |key: u64| {
+                if self.options.stratified {
+                    sobol_2d(index, key)
+                } else {
+                    let z = mix64(key ^ mix64(u64::from(index)));
+                    [to_unit(z as u32), to_unit((z >> 32) as u32)]
+                }
             };
+            let mut rnd = numbers(key);
             // a chain's image: estimated at a share of the samples,
             // weighted by its inverse (its first number decides, rescaled)
             let mut weight = 1.0;
@@ -384,14 +387,7 @@ impl<'a> Renderer<'a> {
             // with a lens, one lens position a sample for the pair's
             // directions: its own Sobol points, keyed apart
             let lp = if self.camera.has_lens() {
-                let key = key ^ LENS_KEY;
-                let u = if self.options.stratified {
-                    sobol_2d(index, key)
-                } else {
-                    let z = mix64(key ^ mix64(u64::from(index)));
-                    [to_unit(z as u32), to_unit((z >> 32) as u32)]
-                };
-                self.camera.lens_point(u)
+                self.camera.lens_point(numbers(key ^ LENS_KEY))
             } else {
                 LensPoint::CENTRE
             };
