@@ -819,48 +819,67 @@ mod tests {
             pairs.as_slice().len() > direct + 10,
             "chains fill the room left"
         );
+        landed_in_rectangles(&view, &camera, pairs.as_slice());
+    }
+
+    /// Samples 2,000 directions (and, with a lens, lens positions) for
+    /// each pair of `list`, solves each as the estimator does, and asserts
+    /// that every film position on the film lies in its pair's rectangle;
+    /// returns how many landed on the film.
+    fn landed_in_rectangles(view: &SceneView<'_>, camera: &Camera, list: &[Highlight]) -> usize {
         let mut next = numbers();
-        for p in pairs.as_slice() {
+        let mut landed = 0;
+        for p in list {
             let m = view.spheres[p.mirror as usize];
             let l = view.spheres[p.light as usize];
             let reach = l.radius + m.radius;
             let [x0, y0, x1, y1] = p.pixels;
             for _ in 0..2000 {
+                let lp = camera.lens_point([next(), next()]);
+                let eye = camera.origin(&lp);
                 let Some(cone) =
                     light::sample_cone(m.center, l.center, reach * reach, next(), next(), false)
                 else {
                     continue;
                 };
                 let seen = if p.via == NO_VIA {
-                    let Some(n) = mirror_point(camera.eye(), m.center, m.radius, cone.dir) else {
+                    let Some(n) = mirror_point(eye, m.center, m.radius, cone.dir) else {
                         continue;
                     };
                     m.center + n * m.radius
                 } else {
                     let a = view.spheres[usize::from(p.via & !VIA_INSIDE)];
-                    let (kind, _) = first(&view, &camera, &a).unwrap();
-                    let Some((seen, _, _)) =
-                        chain_points(camera.eye(), kind, &a, &m, cone.dir, None)
-                    else {
+                    let (kind, _) = first(view, camera, &a).unwrap();
+                    let found = if p.through_glass() {
+                        chain::glass_entry(eye, kind, &a, cone.dir)
+                    } else {
+                        chain_points(eye, kind, &a, &m, cone.dir, None).map(|(s, _, _)| s)
+                    };
+                    let Some(seen) = found else {
                         continue;
                     };
                     seen
                 };
-                let [fx, fy] = camera.film_of(seen).unwrap();
+                let [fx, fy] = camera.film_at(seen, &lp).unwrap();
                 let (px, py) = (math::floor(fx), math::floor(fy));
-                if px < 0.0 || py < 0.0 || px >= 48.0 || py >= 32.0 {
+                let (w, h) = (camera.width() as f32, camera.height() as f32);
+                if px < 0.0 || py < 0.0 || px >= w || py >= h {
                     continue;
                 }
+                landed += 1;
                 assert!(
                     px >= f32::from(x0)
                         && px <= f32::from(x1)
                         && py >= f32::from(y0)
                         && py <= f32::from(y1),
-                    "({fx}, {fy}) outside {:?}",
-                    p.pixels
+                    "({fx}, {fy}) outside {:?} (via {}, sphere {})",
+                    p.pixels,
+                    p.via,
+                    p.mirror
                 );
             }
         }
+        landed
     }
 
     /// The same through a thin lens, for mirror pairs, glass pairs and
@@ -908,57 +927,7 @@ mod tests {
             glass_pairs >= 3 && mirror_pairs >= 3 && chains >= 3,
             "{glass_pairs} glass pairs, {mirror_pairs} mirror pairs, {chains} chains"
         );
-        let mut next = numbers();
-        let mut landed = 0;
-        for p in list {
-            let m = view.spheres[p.mirror as usize];
-            let l = view.spheres[p.light as usize];
-            let reach = l.radius + m.radius;
-            let [x0, y0, x1, y1] = p.pixels;
-            for _ in 0..2000 {
-                let lp = camera.lens_point([next(), next()]);
-                let eye = camera.origin(&lp);
-                let Some(cone) =
-                    light::sample_cone(m.center, l.center, reach * reach, next(), next(), false)
-                else {
-                    continue;
-                };
-                let seen = if p.via == NO_VIA {
-                    let Some(n) = mirror_point(eye, m.center, m.radius, cone.dir) else {
-                        continue;
-                    };
-                    m.center + n * m.radius
-                } else {
-                    let a = view.spheres[usize::from(p.via & !VIA_INSIDE)];
-                    let (kind, _) = first(&view, &camera, &a).unwrap();
-                    let found = if p.through_glass() {
-                        chain::glass_entry(eye, kind, &a, cone.dir)
-                    } else {
-                        chain_points(eye, kind, &a, &m, cone.dir, None).map(|(s, _, _)| s)
-                    };
-                    let Some(seen) = found else {
-                        continue;
-                    };
-                    seen
-                };
-                let [fx, fy] = camera.film_at(seen, &lp).unwrap();
-                let (px, py) = (math::floor(fx), math::floor(fy));
-                if px < 0.0 || py < 0.0 || px >= 48.0 || py >= 32.0 {
-                    continue;
-                }
-                landed += 1;
-                assert!(
-                    px >= f32::from(x0)
-                        && px <= f32::from(x1)
-                        && py >= f32::from(y0)
-                        && py <= f32::from(y1),
-                    "({fx}, {fy}) outside {:?} (via {}, sphere {})",
-                    p.pixels,
-                    p.via,
-                    p.mirror
-                );
-            }
-        }
+        let landed = landed_in_rectangles(&view, &camera, list);
         assert!(landed > 1000, "{landed} samples landed on the film");
     }
 }
