@@ -269,14 +269,29 @@ pub fn bsdf_share(
 }
 
 /// The sum of the caustic pairs' weights at `x` ([`pair_weight`], in
-/// [`sample`]'s order).
+/// [`sample`]'s order, so that its choice's probabilities are these).
 #[cfg(feature = "glass")]
 fn pair_total(scene: &SceneView<'_>, list: &[u16], x: Vec3) -> f32 {
     let mut total = 0.0f32;
+    each_pair(scene, list, x, |_, _, w| total += w);
+    total
+}
+
+/// Calls `f` with the scene indices of the sphere and the light and the
+/// weight ([`pair_weight`], positive) of every caustic pair of the spheres
+/// `list` at `x`, in scene order; a sphere whose half-angle at `x` is below
+/// [`SIN_MIN`] is passed over before its lights are.
+#[inline(always)]
+fn each_pair(scene: &SceneView<'_>, list: &[u16], x: Vec3, mut f: impl FnMut(usize, usize, f32)) {
     for &i in list {
         let Some(m) = scene.spheres.get(usize::from(i)) else {
             continue;
         };
+        let d2 = (m.center - x).length_squared();
+        let r2 = m.radius * m.radius;
+        if !(d2 > r2 && r2 >= SIN_MIN * SIN_MIN * d2) {
+            continue;
+        }
         for &li in scene.emitters {
             let Some(l) = scene.spheres.get(usize::from(li)) else {
                 continue;
@@ -284,11 +299,10 @@ fn pair_total(scene: &SceneView<'_>, list: &[u16], x: Vec3) -> f32 {
             let le = emitted(scene, l).map_or(0.0, |c| c.luminance());
             let w = pair_weight(m, l, le, x);
             if w > 0.0 {
-                total += w;
+                f(usize::from(i), usize::from(li), w);
             }
         }
     }
-    total
 }
 
 /// One path of a caustic sample.
@@ -351,35 +365,17 @@ pub fn sample(
     let mut total = 0.0f32;
     let mut chosen: Option<(usize, usize, f32)> = None;
     let mut v = u0;
-    for &i in list {
-        let Some(m) = scene.spheres.get(usize::from(i)) else {
-            continue;
-        };
-        let d2 = (m.center - x.point).length_squared();
-        let r2 = m.radius * m.radius;
-        if !(d2 > r2 && r2 >= SIN_MIN * SIN_MIN * d2) {
-            continue;
+    each_pair(scene, list, x.point, |mi, li, w| {
+        total += w;
+        let keep = w / total;
+        if v < keep {
+            chosen = Some((mi, li, w));
+            v /= keep;
+        } else {
+            v = (v - keep) / (1.0 - keep);
         }
-        for &li in scene.emitters {
-            let Some(l) = scene.spheres.get(usize::from(li)) else {
-                continue;
-            };
-            let le = emitted(scene, l).map_or(0.0, |c| c.luminance());
-            let w = pair_weight(m, l, le, x.point);
-            if !(w > 0.0) {
-                continue;
-            }
-            total += w;
-            let keep = w / total;
-            if v < keep {
-                chosen = Some((usize::from(i), usize::from(li), w));
-                v /= keep;
-            } else {
-                v = (v - keep) / (1.0 - keep);
-            }
-            v = math::min(v, 0.999_999_94);
-        }
-    }
+        v = math::min(v, 0.999_999_94);
+    });
     let Some((mi, li, w)) = chosen else {
         return 0;
     };
