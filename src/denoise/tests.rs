@@ -429,3 +429,40 @@ fn a_firefly_is_no_tap_of_its_neighbours() {
         "without the rule: {without}, with: {with}"
     );
 }
+
+#[test]
+fn the_running_window_sums_what_the_window_holds() {
+    // the choice's sums along a row (three additions a pixel, blocks of the
+    // window's length) against the plain sum over each window, clipped to
+    // the row, for both reaches and every row width up to four blocks, and
+    // values spanning twelve orders of magnitude (a firefly's SURE beside
+    // quiet pixels')
+    const N: usize = 4 * (2 * CHOICE_REACH_FEW + 1) + 3;
+    let mut rng = XorShiftRng::seed_from_u64(3);
+    let mut columns = [Column::EMPTY; N];
+    let slot = 2;
+    for reach in [CHOICE_REACH, CHOICE_REACH_FEW] {
+        for w in 1..=N {
+            let mut sure = [[0.0f32; WIDTHS.len() + 1]; N];
+            for (c, s) in columns.iter_mut().zip(sure.iter_mut()).take(w) {
+                for v in s.iter_mut() {
+                    let e = (rng.next_u32() % 13) as f32 - 6.0;
+                    *v = (rng.next_u32() % 1000) as f32 * math::powf(10.0, e) * 1e-3;
+                }
+                c.sure = *s;
+            }
+            row_window_sums(&mut columns, w, slot, reach);
+            for x in 0..w {
+                let (a, b) = (x.saturating_sub(reach), (x + reach).min(w - 1));
+                for k in 0..WIDTHS.len() + 1 {
+                    let want: f32 = sure[a..=b].iter().map(|s| s[k]).sum();
+                    let got = columns[x].row_sure[slot][k];
+                    assert!(
+                        (got - want).abs() <= 1e-5 * want.abs(),
+                        "reach {reach}, width {w}, x {x}, k {k}: {got} against {want}"
+                    );
+                }
+            }
+        }
+    }
+}
