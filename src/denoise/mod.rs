@@ -51,6 +51,7 @@ mod seen;
 mod tests;
 #[cfg(feature = "checker")]
 mod texture;
+mod window;
 
 pub use input::{GUIDE_DEPTH, Guide, GuideKind, Moments, SHARP_ALPHA, guide, pixel_moments};
 pub use seen::{LightEdges, SEEN_RAYS_PER_SAMPLE, SeenLights};
@@ -59,6 +60,7 @@ pub use texture::{FINE_SQUARES, MEASURED_UP_TO, TEXTURE_RAYS_PER_SAMPLE, Texture
 
 use crate::geometry::{Color, Vec3};
 use crate::math;
+use window::row_window_sums;
 
 /// Taps reach this many pixels either side, in x and in y.
 pub const RADIUS: usize = 3;
@@ -683,73 +685,6 @@ impl<'w> Denoiser<'w> {
             }
             let out = p.out.get(best).copied().unwrap_or(p.out[WIDTHS.len()]);
             emit(y as u32, x as u32, out);
-        }
-    }
-}
-
-/// Each pixel's SURE summed over the pixels within `reach` along the row
-/// (those inside the image), into ring slot `slot` of the row's sums: van
-/// Herk and Gil-Werman's running window. The row is cut into blocks of the
-/// window's length; a window then spans at most two blocks, and its sum
-/// is the first one's sum from the window's start (a suffix) plus the
-/// second one's up to its end (a prefix). Three additions a pixel whatever
-/// the window's width, and no subtraction (a running sum that subtracted
-/// what leaves would keep the rounding of a firefly's SURE in the sums of
-/// the quiet pixels after it). The prefixes go into the slot, the
-/// suffixes over the pixels' own SURE (read by nothing else).
-#[inline(always)]
-fn row_window_sums(columns: &mut [Column], w: usize, slot: usize, reach: usize) {
-    type Sums = [f32; WIDTHS.len() + 1];
-    let block = 2 * reach + 1;
-    let columns = columns.get_mut(..w).unwrap_or(&mut []);
-    let add = |a: Sums, b: &Sums| -> Sums { core::array::from_fn(|k| a[k] + b[k]) };
-    for chunk in columns.chunks_mut(block) {
-        let mut run = [0.0f32; WIDTHS.len() + 1];
-        for c in chunk.iter_mut() {
-            run = add(run, &c.sure);
-            if let Some(r) = c.row_sure.get_mut(slot) {
-                *r = run;
-            }
-        }
-        let mut run = [0.0f32; WIDTHS.len() + 1];
-        for c in chunk.iter_mut().rev() {
-            run = add(run, &c.sure);
-            c.sure = run;
-        }
-    }
-    // each window [a, b], clipped to the row: where a starts a block, the
-    // prefix to b (one block); else where a is in the row's last block,
-    // the suffix from a (b ends the row); else the suffix from a and the
-    // prefix to b in the next block. `phase` is a's place in its block.
-    // Slot x is written after every prefix it is read for (b ≥ x)
-    let last_start = (w.saturating_sub(1) / block) * block;
-    let mut phase = 0;
-    for x in 0..w {
-        let a = x.saturating_sub(reach);
-        let b = (x + reach).min(w - 1);
-        if x > reach {
-            phase += 1;
-            if phase == block {
-                phase = 0;
-            }
-        }
-        let prefix = || {
-            columns
-                .get(b)
-                .and_then(|c| c.row_sure.get(slot))
-                .copied()
-                .unwrap_or_default()
-        };
-        let suffix = || columns.get(a).map(|c| c.sure).unwrap_or_default();
-        let total = if phase == 0 {
-            prefix()
-        } else if a >= last_start {
-            suffix()
-        } else {
-            add(prefix(), &suffix())
-        };
-        if let Some(r) = columns.get_mut(x).and_then(|c| c.row_sure.get_mut(slot)) {
-            *r = total;
         }
     }
 }
