@@ -334,7 +334,7 @@ pub struct Column {
     /// The row whose candidates are computed: the pixel's own SURE of each
     /// candidate, "no filter" last.
     sure: [f32; WIDTHS.len() + 1],
-    /// Each row's SURE summed over the pixels within [`CHOICE_REACH`] in
+    /// Each row's SURE summed over the pixels within the choice's reach in
     /// the row (once per row, so that the choice adds rows, not pixels).
     row_sure: [[f32; WIDTHS.len() + 1]; CHOICE_ROWS],
     choices: [Choice; CHOICE_KEPT],
@@ -644,8 +644,9 @@ impl<'w> Denoiser<'w> {
     }
 
     /// The choice for every pixel of row `y`, emitted: the candidate whose
-    /// SURE summed over the pixels within [`CHOICE_REACH`] in x and [`CHOICE_RADIUS`] in y
-    /// is least, "no filter" on a tie.
+    /// SURE summed over the pixels within the reach along the row
+    /// ([`CHOICE_REACH`] or [`CHOICE_REACH_FEW`]) and [`CHOICE_RADIUS`]
+    /// along the column is least, "no filter" on a tie.
     fn choose(&mut self, y: usize, emit: &mut impl FnMut(u32, u32, Color)) {
         let h = self.height;
         // the ring slots of rows y − CHOICE_RADIUS ..= y + CHOICE_RADIUS
@@ -778,8 +779,8 @@ fn candidate_at(
         };
         sure[k] = d * d + p.variance * div;
         // the consistency guard: a filter may move the pixel by at most
-        // CONSISTENCY (or CONSISTENCY_FEW) of its own standard errors (else it is biased here,
-        // whatever its window's SURE says)
+        // CONSISTENCY (or CONSISTENCY_FEW) of its own standard errors
+        // (else it is biased here, whatever its window's SURE says)
         // (the pixel's spread back in radiance: the tap's is over albedo)
         consistent[k] = !guards.consistency || d * d <= consistency2 * t.spread * p_albedo2;
         filtered[k] = f;

@@ -79,13 +79,14 @@ mod tests {
     use crate::math;
     use rand_core::{Rng, SeedableRng};
     use rand_xorshift::XorShiftRng;
+
     #[test]
     fn the_running_window_sums_what_the_window_holds() {
-        // the choice's sums along a row (three additions a pixel, blocks of the
-        // window's length) against the plain sum over each window, clipped to
-        // the row, for both reaches and every row width up to four blocks, and
-        // values spanning twelve orders of magnitude (a firefly's SURE beside
-        // quiet pixels')
+        // the choice's sums along a row (three additions a pixel, blocks of
+        // the window's length) against the plain sum over each window,
+        // clipped to the row, for both reaches and every row width up to
+        // four blocks, and values spanning twelve orders of magnitude (a
+        // firefly's SURE beside quiet pixels')
         const N: usize = 4 * (2 * CHOICE_REACH_FEW + 1) + 3;
         let mut rng = XorShiftRng::seed_from_u64(3);
         let mut columns = [Column::EMPTY; N];
